@@ -1,0 +1,181 @@
+//! Narrow phase: parry3d contact manifolds for each broad-phase pair, kept from step to step so
+//! that each tracked contact point carries its accumulated impulse (warm starting).
+
+use bevy::prelude::*;
+use parry3d::math::Pose;
+use parry3d::query::{
+    ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher,
+    PersistentQueryDispatcher,
+};
+use parry3d::shape::Shape;
+
+/// The impulses parry carries over to the matching contact point of the next step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactImpulse {
+    /// Accumulated normal impulse, N s.
+    pub normal: f32,
+    /// Accumulated friction impulse along the two tangents, N s.
+    pub tangent: [f32; 2],
+}
+
+/// A parry manifold whose points carry [`ContactImpulse`].
+pub type Manifold = ContactManifold<(), ContactImpulse>;
+
+/// The persistent contact state of one pair of colliders, `a < b`.
+pub struct ContactPair {
+    /// The first entity (the smaller); contact normals point from `a` to `b`.
+    pub a: Entity,
+    /// The second entity.
+    pub b: Entity,
+    /// Contact manifolds, in `a`'s local frame for points `local_p1` and normal `local_n1`.
+    pub manifolds: Vec<Manifold>,
+    workspace: Option<ContactManifoldsWorkspace>,
+    /// The pair touched (a point within [`TOUCH_DISTANCE`], or any impulse) in the last step.
+    pub touching: bool,
+}
+
+impl ContactPair {
+    fn new(a: Entity, b: Entity) -> Self {
+        ContactPair { a, b, manifolds: Vec::new(), workspace: None, touching: false }
+    }
+
+    /// Recomputes the manifolds for the shapes at `pose_a` and `pose_b`, keeping contact points
+    /// that persist (and their impulses). `prediction` (m) is how far apart shapes may be and
+    /// still produce (speculative) contacts. Returns false when parry has no algorithm for the
+    /// pair of shapes.
+    pub fn update(
+        &mut self,
+        pose_a: &Pose,
+        shape_a: &dyn Shape,
+        pose_b: &Pose,
+        shape_b: &dyn Shape,
+        prediction: f32,
+    ) -> bool {
+        let pos12 = pose_a.inv_mul(pose_b);
+        DefaultQueryDispatcher
+            .contact_manifolds(
+                &pos12,
+                shape_a,
+                shape_b,
+                prediction,
+                &mut self.manifolds,
+                &mut self.workspace,
+            )
+            .is_ok()
+    }
+
+    /// World contact points of the pair: `(manifold, point index, world point, world normal
+    /// from a to b, signed distance)`, the point being the midpoint of the two surface points.
+    pub fn world_points(
+        &self,
+        pose_a: &Pose,
+        pose_b: &Pose,
+    ) -> impl Iterator<Item = (usize, usize, Vec3, Vec3, f32)> + '_ {
+        let (pose_a, pose_b) = (*pose_a, *pose_b);
+        self.manifolds.iter().enumerate().flat_map(move |(m, manifold)| {
+            let frame_a = match manifold.subshape_pos1 {
+                Some(sub) => pose_a * sub,
+                None => pose_a,
+            };
+            let frame_b = match manifold.subshape_pos2 {
+                Some(sub) => pose_b * sub,
+                None => pose_b,
+            };
+            let normal = frame_a.rotation * manifold.local_n1;
+            manifold.points.iter().enumerate().map(move |(k, p)| {
+                let p1 = frame_a.transform_point(p.local_p1);
+                let p2 = frame_b.transform_point(p.local_p2);
+                (m, k, 0.5 * (p1 + p2), normal, p.dist)
+            })
+        })
+    }
+}
+
+/// Points closer than this count as touching for collision start and end, m.
+pub const TOUCH_DISTANCE: f32 = 0.005;
+
+/// Every pair the broad phase reported in the last step, sorted by `(a, b)`.
+#[derive(Resource, Default)]
+pub struct ContactPairs {
+    pairs: Vec<ContactPair>,
+}
+
+impl ContactPairs {
+    /// The pairs, sorted by `(a, b)`.
+    pub fn iter(&self) -> impl Iterator<Item = &ContactPair> {
+        self.pairs.iter()
+    }
+
+    /// The pair of `a` and `b` (in either order), if the broad phase reported it.
+    pub fn get(&self, a: Entity, b: Entity) -> Option<&ContactPair> {
+        let key = (a.min(b), a.max(b));
+        self.pairs.binary_search_by(|p| (p.a, p.b).cmp(&key)).ok().map(|i| &self.pairs[i])
+    }
+
+    /// Mutable access to all pairs, in order.
+    pub fn pairs_mut(&mut self) -> &mut [ContactPair] {
+        &mut self.pairs
+    }
+
+    /// Replaces the pair set with `candidates` (sorted by `(a, b)`, `a < b`), keeping the state
+    /// of pairs that persist. Pairs that are gone are passed to `removed` (touching ones end a
+    /// collision).
+    pub fn retain_candidates(
+        &mut self,
+        candidates: &[(Entity, Entity)],
+        mut removed: impl FnMut(&ContactPair),
+    ) {
+        let old = std::mem::take(&mut self.pairs);
+        let mut old = old.into_iter().peekable();
+        self.pairs.reserve(candidates.len());
+        for &(a, b) in candidates {
+            while let Some(p) = old.next_if(|p| (p.a, p.b) < (a, b)) {
+                removed(&p);
+            }
+            match old.next_if(|p| (p.a, p.b) == (a, b)) {
+                Some(p) => self.pairs.push(p),
+                None => self.pairs.push(ContactPair::new(a, b)),
+            }
+        }
+        for p in old {
+            removed(&p);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parry3d::shape::{Ball, Cuboid, HalfSpace};
+
+    /// A ball of radius 0.5 whose centre is 0.49 m above a ground plane at y = 0 touches it
+    /// with 0.01 m penetration at the point straight below, normal +y (from ground to ball).
+    #[test]
+    fn ball_on_half_space() {
+        let ground = HalfSpace::new(Vec3::Y);
+        let ball = Ball::new(0.5);
+        let (pg, pb) = (Pose::identity(), Pose::from_parts(Vec3::new(1.0, 0.49, 0.0), Quat::IDENTITY));
+        let mut pair = ContactPair::new(Entity::from_raw_u32(1).unwrap(), Entity::from_raw_u32(2).unwrap());
+        assert!(pair.update(&pg, &ground, &pb, &ball, 0.02));
+        let points: Vec<_> = pair.world_points(&pg, &pb).collect();
+        assert_eq!(points.len(), 1);
+        let (_, _, p, n, d) = points[0];
+        // 1e-6: parry's exact closed form for this pair, f32 rounding only.
+        assert!((d + 0.01).abs() < 1e-6, "{d}");
+        assert!((n - Vec3::Y).length() < 1e-6);
+        assert!((p - Vec3::new(1.0, -0.005, 0.0)).length() < 1e-6, "{p}");
+    }
+
+    /// A box resting flat on the ground gives four corner points at the box's corners.
+    #[test]
+    fn box_on_half_space_has_four_corners() {
+        let ground = HalfSpace::new(Vec3::Y);
+        let cuboid = Cuboid::new(Vec3::new(1.0, 0.25, 0.5));
+        let (pg, pb) = (Pose::identity(), Pose::from_parts(Vec3::new(0.0, 0.25, 0.0), Quat::IDENTITY));
+        let mut pair = ContactPair::new(Entity::from_raw_u32(1).unwrap(), Entity::from_raw_u32(2).unwrap());
+        assert!(pair.update(&pg, &ground, &pb, &cuboid, 0.02));
+        let mut xs: Vec<(f32, f32)> = pair.world_points(&pg, &pb).map(|(_, _, p, _, _)| (p.x, p.z)).collect();
+        xs.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        assert_eq!(xs, vec![(-1.0, -0.5), (-1.0, 0.5), (1.0, -0.5), (1.0, 0.5)]);
+    }
+}

@@ -1,0 +1,167 @@
+//! Mass properties: from the collider's volume and density (or a mass override), validated.
+
+use bevy::prelude::*;
+
+use crate::collision::Collider;
+
+/// Mass properties the plugin derives from [`Collider`], [`Density`](super::Density) and
+/// [`Mass`](super::Mass) whenever one of them changes. Read it; do not write it.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct ComputedMass {
+    /// `1/m` in 1/kg.
+    pub inverse_mass: f32,
+    /// Centre of mass in the body's local frame, m.
+    pub local_center_of_mass: Vec3,
+    /// Inverse inertia tensor in the body's local frame, 1/(kg m^2).
+    pub local_inverse_inertia: Mat3,
+    /// The inertia is the same about every axis (sphere, cube): the world tensor never changes
+    /// with rotation, so it needs no update while the body turns.
+    pub isotropic: bool,
+}
+
+impl Default for ComputedMass {
+    fn default() -> Self {
+        ComputedMass {
+            inverse_mass: 0.0,
+            local_center_of_mass: Vec3::ZERO,
+            local_inverse_inertia: Mat3::ZERO,
+            isotropic: true,
+        }
+    }
+}
+
+impl ComputedMass {
+    /// Mass properties of `collider` with `density` (kg/m^3), or with total mass `mass` (kg) when
+    /// given, the inertia scaled to that mass. Errors name what is wrong.
+    pub fn from_collider(
+        collider: &Collider,
+        density: f32,
+        mass: Option<f32>,
+    ) -> Result<ComputedMass, String> {
+        if let Some(error) = collider.error() {
+            return Err(format!("invalid collider: {error}"));
+        }
+        if collider.is_unbounded_or_hollow() {
+            return Err(
+                "a dynamic body needs a collider with volume (not a half-space or trimesh)"
+                    .to_string(),
+            );
+        }
+        if let Some(m) = mass {
+            if !(m.is_finite() && m > 0.0) {
+                return Err(format!("mass must be finite and > 0, got {m}"));
+            }
+        } else if !(density.is_finite() && density > 0.0) {
+            return Err(format!("density must be finite and > 0, got {density}"));
+        }
+        let mut props = collider.shape().mass_properties(density);
+        if let Some(m) = mass {
+            props.set_mass(m, true);
+        }
+        let invalid = !props.inv_mass.is_finite()
+            || props.inv_mass <= 0.0
+            || !props.inv_principal_inertia.is_finite()
+            || !props.local_com.is_finite();
+        if invalid {
+            return Err(format!(
+                "collider gives no usable mass (1/m = {}, 1/I = {})",
+                props.inv_mass, props.inv_principal_inertia
+            ));
+        }
+        let inv = props.inv_principal_inertia;
+        let isotropic = (inv.x - inv.y).abs() <= 1e-6 * inv.x.abs()
+            && (inv.x - inv.z).abs() <= 1e-6 * inv.x.abs();
+        let local_inverse_inertia = if isotropic {
+            Mat3::from_diagonal(inv)
+        } else {
+            props.reconstruct_inverse_inertia_matrix()
+        };
+        Ok(ComputedMass {
+            inverse_mass: props.inv_mass,
+            local_center_of_mass: props.local_com,
+            local_inverse_inertia,
+            isotropic,
+        })
+    }
+
+    /// World-space inverse inertia `R I_body^-1 R^T` for a body at `rotation`, with the rows and
+    /// columns of locked world axes zeroed.
+    pub fn world_inverse_inertia(&self, rotation: Quat, locked_rotation: BVec3) -> Mat3 {
+        let world = if self.isotropic {
+            self.local_inverse_inertia
+        } else {
+            let r = Mat3::from_quat(rotation);
+            r * self.local_inverse_inertia * r.transpose()
+        };
+        lock_axes(world, locked_rotation)
+    }
+}
+
+/// Zeroes the rows and columns of `m` for the locked axes: `D m D` with `D = diag(unlocked)`.
+pub fn lock_axes(m: Mat3, locked: BVec3) -> Mat3 {
+    if !locked.any() {
+        return m;
+    }
+    let d = Mat3::from_diagonal(Vec3::select(locked, Vec3::ZERO, Vec3::ONE));
+    d * m * d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A solid sphere of radius r and density rho: m = 4/3 pi r^3 rho, I = 2/5 m r^2.
+    /// Tolerance: relative 1e-5, the f32 rounding of these few operations.
+    #[test]
+    fn sphere_mass_matches_closed_form() {
+        let m = ComputedMass::from_collider(&Collider::sphere(0.5), 1000.0, None).unwrap();
+        let mass = 4.0 / 3.0 * std::f32::consts::PI * 0.125 * 1000.0;
+        assert!((1.0 / m.inverse_mass - mass).abs() <= 1e-5 * mass);
+        let inertia = 0.4 * mass * 0.25;
+        assert!((1.0 / m.local_inverse_inertia.x_axis.x - inertia).abs() <= 1e-5 * inertia);
+        assert!(m.isotropic);
+    }
+
+    /// A box of mass m (override) with half extents (a, b, c): I_x = m/3 (b^2 + c^2), etc.
+    #[test]
+    fn box_with_mass_override_scales_inertia() {
+        let m = ComputedMass::from_collider(&Collider::cuboid(1.0, 0.25, 0.5), 1000.0, Some(2.0))
+            .unwrap();
+        assert!((m.inverse_mass - 0.5).abs() <= 1e-6);
+        let expected = Vec3::new(
+            2.0 / 3.0 * (0.0625 + 0.25),
+            2.0 / 3.0 * (1.0 + 0.25),
+            2.0 / 3.0 * (1.0 + 0.0625),
+        );
+        let world = m.world_inverse_inertia(Quat::IDENTITY, BVec3::FALSE);
+        let diag = Vec3::new(world.x_axis.x, world.y_axis.y, world.z_axis.z);
+        assert!((diag.recip() - expected).abs().max_element() <= 1e-5, "{diag}");
+        assert!(!m.isotropic);
+    }
+
+    /// A rotated body's world inverse inertia is R I^-1 R^T: a box turned 90 degrees about z
+    /// swaps its x and y entries.
+    #[test]
+    fn world_inertia_rotates() {
+        let m = ComputedMass::from_collider(&Collider::cuboid(1.0, 0.25, 0.5), 1000.0, Some(1.0))
+            .unwrap();
+        let w0 = m.world_inverse_inertia(Quat::IDENTITY, BVec3::FALSE);
+        let w1 = m.world_inverse_inertia(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2), BVec3::FALSE);
+        assert!((w1.x_axis.x - w0.y_axis.y).abs() <= 1e-4 * w0.y_axis.y);
+        assert!((w1.y_axis.y - w0.x_axis.x).abs() <= 1e-4 * w0.x_axis.x);
+        let locked = m.world_inverse_inertia(Quat::IDENTITY, BVec3::TRUE);
+        assert_eq!(locked, Mat3::ZERO);
+    }
+
+    #[test]
+    fn bad_mass_inputs_are_errors() {
+        let ball = Collider::sphere(0.5);
+        assert!(ComputedMass::from_collider(&ball, 0.0, None).is_err());
+        assert!(ComputedMass::from_collider(&ball, -1.0, None).is_err());
+        assert!(ComputedMass::from_collider(&ball, f32::NAN, None).is_err());
+        assert!(ComputedMass::from_collider(&ball, 1000.0, Some(0.0)).is_err());
+        assert!(ComputedMass::from_collider(&ball, 1000.0, Some(f32::INFINITY)).is_err());
+        assert!(ComputedMass::from_collider(&Collider::cuboid(0.0, 1.0, 1.0), 1.0, None).is_err());
+        assert!(ComputedMass::from_collider(&Collider::half_space(Vec3::Y), 1.0, None).is_err());
+    }
+}

@@ -1,0 +1,50 @@
+//! Bodies, mass properties and the contact solver.
+
+pub mod mass;
+pub mod rigid_body;
+pub mod solver;
+
+pub use mass::ComputedMass;
+pub use rigid_body::{
+    AngularVelocity, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass, Quarantined,
+    Restitution, RigidBody,
+};
+pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
+
+use bevy::prelude::*;
+
+use crate::messages::Impact;
+use crate::pipeline;
+use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+
+/// Bodies, mass properties and the solver: validates and gathers bodies, solves contacts,
+/// integrates, writes results back, and sends `Impact` messages.
+pub struct DynamicsPlugin;
+
+impl Plugin for DynamicsPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<Gravity>()
+            .init_resource::<SolverConfig>()
+            .init_resource::<SolverStats>()
+            .add_message::<Impact>()
+            .register_type::<RigidBody>()
+            .register_type::<LinearVelocity>()
+            .register_type::<AngularVelocity>()
+            .register_type::<Restitution>()
+            .register_type::<Friction>()
+            .register_type::<Mass>()
+            .register_type::<Density>()
+            .register_type::<LockedAxes>()
+            .register_type::<Gravity>()
+            .register_type::<SolverConfig>()
+            .register_type::<SolverStats>()
+            .add_systems(
+                PhysicsSchedule,
+                (
+                    pipeline::prepare_bodies.in_set(PhysicsSystems::Prepare),
+                    pipeline::solve_contacts.in_set(PhysicsSystems::Solve),
+                    pipeline::write_back.in_set(PhysicsSystems::WriteBack),
+                ),
+            );
+    }
+}

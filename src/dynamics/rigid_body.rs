@@ -1,0 +1,120 @@
+//! The components that make an entity a rigid body.
+
+use bevy::prelude::*;
+
+use super::mass::ComputedMass;
+
+/// How a body moves. Spawning `RigidBody` + [`Collider`](crate::collision::Collider) (+ the
+/// `Transform` Bevy adds) is enough; the other body components are required with their defaults.
+///
+/// - `Dynamic`: moved by gravity and contacts; mass and inertia from the collider.
+/// - `Static`: never moves; contacts treat it as infinitely heavy (`1/m = 0`, `I^-1 = 0`).
+/// - `Kinematic`: moves at its [`LinearVelocity`] and [`AngularVelocity`] and pushes dynamic
+///   bodies, but neither gravity nor contacts change it (`1/m = 0`, `I^-1 = 0`).
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Component, Debug, Default, PartialEq)]
+#[require(
+    Transform,
+    LinearVelocity,
+    AngularVelocity,
+    Restitution,
+    Friction,
+    Density,
+    ComputedMass
+)]
+pub enum RigidBody {
+    /// Moved by gravity and contacts.
+    #[default]
+    Dynamic,
+    /// Never moves.
+    Static,
+    /// Moves at its set velocity; unaffected by contacts and gravity.
+    Kinematic,
+}
+
+impl RigidBody {
+    /// True for [`RigidBody::Dynamic`].
+    pub fn is_dynamic(self) -> bool {
+        self == RigidBody::Dynamic
+    }
+}
+
+/// Linear velocity of the centre of mass, world frame, in m/s. Default zero.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Deref, DerefMut)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct LinearVelocity(pub Vec3);
+
+/// Angular velocity, world frame, in rad/s. Default zero.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Deref, DerefMut)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct AngularVelocity(pub Vec3);
+
+/// Coefficient of restitution `e` in `[0, 1]`: the ratio of separation to approach speed in an
+/// impact. Default 0 (perfectly inelastic). A pair uses the larger of its two bodies' values.
+/// Values outside `[0, 1]` are clamped, with a warning naming the entity.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Deref, DerefMut)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct Restitution(pub f32);
+
+/// Coulomb friction coefficient, dimensionless. Default 0: friction is off and costs nothing.
+/// A pair uses the larger of its two bodies' values; friction acts in the resting-contact solve
+/// (see [`SolverMethod`](crate::dynamics::solver::SolverMethod)).
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Deref, DerefMut)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct Friction(pub f32);
+
+/// Optional mass override in kg. Without it the mass is the collider's volume times [`Density`];
+/// with it the inertia is scaled to match, keeping the collider's mass distribution.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Deref, DerefMut)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct Mass(pub f32);
+
+/// Density in kg/m^3, used when no [`Mass`] is given. Default 1000 (water).
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Deref, DerefMut)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct Density(pub f32);
+
+impl Default for Density {
+    fn default() -> Self {
+        Density(1000.0)
+    }
+}
+
+/// Locks rotation about world axes: a body with all three locked is a particle, and the solver
+/// skips the angular terms of its contacts. Default: nothing locked.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct LockedAxes {
+    /// Rotation about world x, y, z is locked.
+    pub rotation: BVec3,
+}
+
+impl LockedAxes {
+    /// All rotation locked: the body translates only.
+    pub const ROTATION_LOCKED: LockedAxes = LockedAxes { rotation: BVec3::TRUE };
+
+    /// Locks rotation about the world axes marked true.
+    pub fn rotation(x: bool, y: bool, z: bool) -> Self {
+        LockedAxes { rotation: BVec3::new(x, y, z) }
+    }
+}
+
+/// Gravity, in m/s^2. Default `(0, -9.81, 0)`.
+#[derive(Resource, Reflect, Clone, Copy, Debug, PartialEq, Deref, DerefMut)]
+#[reflect(Resource, Debug, Default, PartialEq)]
+pub struct Gravity(pub Vec3);
+
+impl Default for Gravity {
+    fn default() -> Self {
+        Gravity(Vec3::new(0.0, -9.81, 0.0))
+    }
+}
+
+/// Marks a body that bad input (non-finite pose or velocity, bad mass or density, a degenerate
+/// collider) keeps out of the solve. The reason is logged as an error once, naming the entity;
+/// the marker is removed, with a log line, as soon as the body's input is valid again.
+#[derive(Component, Clone, Debug, PartialEq, Eq)]
+pub struct Quarantined {
+    /// Why the body is left out.
+    pub reason: String,
+}

@@ -1,0 +1,321 @@
+//! Contact constraints: one per contact point, prepared once per step from the solver bodies,
+//! and the row operations every solver stage shares (normal velocity, apply an impulse, current
+//! separation).
+
+use bevy::math::{Quat, Vec3};
+
+use super::body::{SolverBody, pair_mut};
+
+/// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.
+/// Built by the narrow phase with [`ContactConstraint::new`], completed by [`prepare_contacts`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactConstraint {
+    /// Index of body A in the solver body slice.
+    pub body_a: usize,
+    /// Index of body B.
+    pub body_b: usize,
+    /// Unit normal from A to B, world frame.
+    pub normal: Vec3,
+    /// Contact point, world frame, m.
+    pub point: Vec3,
+    /// Signed distance at the start of the step (negative: penetration), m.
+    pub separation: f32,
+    /// Combined restitution in `[0, 1]`.
+    pub restitution: f32,
+    /// Combined friction coefficient; 0 skips friction entirely.
+    pub friction: f32,
+    /// Accumulated normal impulse, N s: the warm-start value on entry, the final one on exit.
+    pub normal_impulse: f32,
+    /// Accumulated friction impulse along the two tangents, N s.
+    pub tangent_impulse: [f32; 2],
+
+    // Filled by `prepare_contacts`.
+    /// `r_A = P - x_A` at the start of the step.
+    pub anchor_a: Vec3,
+    /// `r_B = P - x_B`.
+    pub anchor_b: Vec3,
+    /// `r_A x n`.
+    pub rn_a: Vec3,
+    /// `r_B x n`.
+    pub rn_b: Vec3,
+    /// `I_A^-1 (r_A x n)`: angular velocity change of A per unit impulse (with sign -).
+    pub ang_a: Vec3,
+    /// `I_B^-1 (r_B x n)`.
+    pub ang_b: Vec3,
+    /// The angular terms are non-zero: when false (spheres through their centres, particles,
+    /// fixed bodies), the rows skip all angular work.
+    pub angular: bool,
+    /// `1/K`, the effective mass along the normal, kg; 0 when neither body can move.
+    pub normal_mass: f32,
+    /// `separation - (r_B - r_A) . n`, so that the current separation is this plus the
+    /// normal part of the anchors' displacement since the start of the step.
+    pub base_separation: f32,
+    /// Normal velocity `v_n` at preparation, m/s (negative: approaching).
+    pub approach_velocity: f32,
+    /// Tangent directions, world frame.
+    pub tangents: [Vec3; 2],
+    /// Effective masses along the tangents, kg.
+    pub tangent_mass: [f32; 2],
+    /// `I^-1 (r x t)` for A and B and each tangent.
+    pub tangent_ang: [[Vec3; 2]; 2],
+
+    // Results of the step.
+    /// Largest accumulated normal impulse seen in the step (restitution applies only to contacts
+    /// that pushed), N s.
+    pub max_normal_impulse: f32,
+    /// Total normal impulse applied over the step, all stages, N s.
+    pub total_impulse: f32,
+    /// The contact was resolved as an impact (approach above the restitution threshold).
+    pub impact: bool,
+}
+
+impl ContactConstraint {
+    /// A contact as the narrow phase reports it; the rest is filled by [`prepare_contacts`].
+    pub fn new(
+        body_a: usize,
+        body_b: usize,
+        point: Vec3,
+        normal: Vec3,
+        separation: f32,
+        restitution: f32,
+        friction: f32,
+    ) -> Self {
+        ContactConstraint {
+            body_a,
+            body_b,
+            normal,
+            point,
+            separation,
+            restitution,
+            friction,
+            normal_impulse: 0.0,
+            tangent_impulse: [0.0; 2],
+            anchor_a: Vec3::ZERO,
+            anchor_b: Vec3::ZERO,
+            rn_a: Vec3::ZERO,
+            rn_b: Vec3::ZERO,
+            ang_a: Vec3::ZERO,
+            ang_b: Vec3::ZERO,
+            angular: false,
+            normal_mass: 0.0,
+            base_separation: separation,
+            approach_velocity: 0.0,
+            tangents: [Vec3::ZERO; 2],
+            tangent_mass: [0.0; 2],
+            tangent_ang: [[Vec3::ZERO; 2]; 2],
+            max_normal_impulse: 0.0,
+            total_impulse: 0.0,
+            impact: false,
+        }
+    }
+
+    /// The normal part of the relative velocity at the contact, `v_rel . n`, using
+    /// `(w x r) . n = w . (r x n)`.
+    #[inline]
+    pub fn normal_velocity(&self, bodies: &[SolverBody]) -> f32 {
+        let (a, b) = (&bodies[self.body_a], &bodies[self.body_b]);
+        let mut vn = (b.linear_velocity - a.linear_velocity).dot(self.normal);
+        if self.angular {
+            vn += b.angular_velocity.dot(self.rn_b) - a.angular_velocity.dot(self.rn_a);
+        }
+        vn
+    }
+
+    /// Applies `+impulse n` to B and `-impulse n` to A.
+    #[inline]
+    pub fn apply_normal_impulse(&self, bodies: &mut [SolverBody], impulse: f32) {
+        let (a, b) = pair_mut(bodies, self.body_a, self.body_b);
+        let p = impulse * self.normal;
+        a.linear_velocity -= a.inverse_mass * p;
+        b.linear_velocity += b.inverse_mass * p;
+        if self.angular {
+            a.angular_velocity -= impulse * self.ang_a;
+            b.angular_velocity += impulse * self.ang_b;
+        }
+    }
+
+    /// The separation now, from the bodies' motion since the start of the step: anchors fixed
+    /// in each body, moved by its displacement and rotation (first order in the rotation,
+    /// exact in the translation). Spheres through their centres ignore rotation, which is exact.
+    #[inline]
+    pub fn current_separation(&self, bodies: &[SolverBody]) -> f32 {
+        let (a, b) = (&bodies[self.body_a], &bodies[self.body_b]);
+        let mut d = b.delta_position - a.delta_position;
+        if self.angular {
+            d += rotate(b.delta_rotation, self.anchor_b) - rotate(a.delta_rotation, self.anchor_a);
+        } else {
+            d += self.anchor_b - self.anchor_a;
+        }
+        d.dot(self.normal) + self.base_separation
+    }
+
+    /// Relative velocity along tangent `k`.
+    #[inline]
+    pub fn tangent_velocity(&self, bodies: &[SolverBody], k: usize) -> f32 {
+        let (a, b) = (&bodies[self.body_a], &bodies[self.body_b]);
+        let t = self.tangents[k];
+        (b.linear_velocity + b.angular_velocity.cross(self.anchor_b)
+            - a.linear_velocity
+            - a.angular_velocity.cross(self.anchor_a))
+        .dot(t)
+    }
+
+    /// Applies friction impulse `impulse` along tangent `k` (+ to B, - to A).
+    #[inline]
+    pub fn apply_tangent_impulse(&self, bodies: &mut [SolverBody], k: usize, impulse: f32) {
+        let (a, b) = pair_mut(bodies, self.body_a, self.body_b);
+        let p = impulse * self.tangents[k];
+        a.linear_velocity -= a.inverse_mass * p;
+        b.linear_velocity += b.inverse_mass * p;
+        a.angular_velocity -= impulse * self.tangent_ang[0][k];
+        b.angular_velocity += impulse * self.tangent_ang[1][k];
+    }
+}
+
+fn rotate(q: Quat, v: Vec3) -> Vec3 {
+    if q == Quat::IDENTITY { v } else { q * v }
+}
+
+/// Fills the derived fields of each contact from the bodies at the start of the step: anchors,
+/// `r x n`, `I^-1 (r x n)`, the effective mass `1/K` (the denominator of the impulse formula of
+/// [`crate::impulse`]), the approach velocity and, where friction is on, the tangent rows.
+///
+/// A contact whose angular terms vanish (both `r x n` zero, or both bodies unable to rotate)
+/// is marked non-angular, and every stage then skips its angular work.
+pub fn prepare_contacts(bodies: &[SolverBody], contacts: &mut [ContactConstraint]) {
+    for c in contacts.iter_mut() {
+        let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
+        c.anchor_a = c.point - a.position;
+        c.anchor_b = c.point - b.position;
+        c.rn_a = c.anchor_a.cross(c.normal);
+        c.rn_b = c.anchor_b.cross(c.normal);
+        c.ang_a = a.inverse_inertia * c.rn_a;
+        c.ang_b = b.inverse_inertia * c.rn_b;
+        let linear = a.inverse_mass + b.inverse_mass;
+        let angular = c.rn_a.dot(c.ang_a) + c.rn_b.dot(c.ang_b);
+        // Relative 1e-7 is f32 rounding of r x n for r parallel to n: treat it as exactly zero.
+        c.angular = angular > 1e-7 * linear.max(f32::MIN_POSITIVE);
+        if !c.angular {
+            c.rn_a = Vec3::ZERO;
+            c.rn_b = Vec3::ZERO;
+            c.ang_a = Vec3::ZERO;
+            c.ang_b = Vec3::ZERO;
+        }
+        let k = linear + if c.angular { angular } else { 0.0 };
+        c.normal_mass = if k > 0.0 { 1.0 / k } else { 0.0 };
+        c.base_separation = c.separation - (c.anchor_b - c.anchor_a).dot(c.normal);
+        c.approach_velocity = c.normal_velocity(bodies);
+        c.max_normal_impulse = 0.0;
+        c.total_impulse = 0.0;
+        c.impact = false;
+        if c.normal_mass == 0.0 {
+            c.normal_impulse = 0.0;
+        }
+        if c.friction > 0.0 {
+            let t0 = c.normal.any_orthonormal_vector();
+            c.tangents = [t0, c.normal.cross(t0)];
+            for k in 0..2 {
+                let t = c.tangents[k];
+                let (ra_t, rb_t) = (c.anchor_a.cross(t), c.anchor_b.cross(t));
+                c.tangent_ang[0][k] = a.inverse_inertia * ra_t;
+                c.tangent_ang[1][k] = b.inverse_inertia * rb_t;
+                let kt = linear + ra_t.dot(c.tangent_ang[0][k]) + rb_t.dot(c.tangent_ang[1][k]);
+                c.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
+            }
+        } else {
+            c.tangent_impulse = [0.0; 2];
+        }
+    }
+}
+
+/// Applies the accumulated impulses (normal and friction) carried over from the previous step
+/// or substep.
+pub fn warm_start(bodies: &mut [SolverBody], contacts: &[ContactConstraint]) {
+    for c in contacts {
+        if c.normal_impulse != 0.0 {
+            c.apply_normal_impulse(bodies, c.normal_impulse);
+        }
+        if c.friction > 0.0 {
+            for k in 0..2 {
+                if c.tangent_impulse[k] != 0.0 {
+                    c.apply_tangent_impulse(bodies, k, c.tangent_impulse[k]);
+                }
+            }
+        }
+    }
+}
+
+/// Coulomb friction on one contact: each tangent row is solved for zero slip, then the
+/// accumulated friction impulse is clamped to the disc of radius `friction * normal_impulse`.
+pub fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
+    let limit = c.friction * c.normal_impulse;
+    let old = c.tangent_impulse;
+    let mut new = old;
+    for k in 0..2 {
+        new[k] -= c.tangent_mass[k] * c.tangent_velocity(bodies, k);
+    }
+    let len = (new[0] * new[0] + new[1] * new[1]).sqrt();
+    if len > limit {
+        let s = if len > 0.0 { limit / len } else { 0.0 };
+        new = [new[0] * s, new[1] * s];
+    }
+    c.tangent_impulse = new;
+    for k in 0..2 {
+        let delta = new[k] - old[k];
+        if delta != 0.0 {
+            c.apply_tangent_impulse(bodies, k, delta);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dynamics::solver::body::Motion;
+    use crate::impulse::{ImpulseBody, inverse_effective_mass};
+    use bevy::math::{BVec3, Mat3};
+
+    /// The prepared effective mass is the reciprocal of the impulse formula's denominator K.
+    #[test]
+    fn prepared_mass_matches_impulse_formula() {
+        let rot = Quat::from_rotation_y(0.7);
+        let inv_local = Mat3::from_diagonal(Vec3::new(3.0, 1.0, 2.0));
+        let bodies = [
+            SolverBody::new(Motion::Dynamic, Vec3::ZERO, rot)
+                .with_mass(0.5, inv_local, false, BVec3::FALSE),
+            SolverBody::new(Motion::Dynamic, Vec3::new(1.0, 0.2, 0.0), Quat::IDENTITY)
+                .with_mass(0.25, inv_local, false, BVec3::FALSE),
+        ];
+        let (p, n) = (Vec3::new(0.5, 0.3, 0.2), Vec3::new(1.0, 0.1, 0.0).normalize());
+        let mut contacts = [ContactConstraint::new(0, 1, p, n, 0.0, 0.0, 0.0)];
+        prepare_contacts(&bodies, &mut contacts);
+        let as_impulse = |b: &SolverBody| ImpulseBody {
+            inverse_mass: b.inverse_mass,
+            inverse_inertia: b.inverse_inertia,
+            center_of_mass: b.position,
+            linear_velocity: b.linear_velocity,
+            angular_velocity: b.angular_velocity,
+        };
+        let k = inverse_effective_mass(&as_impulse(&bodies[0]), &as_impulse(&bodies[1]), p, n);
+        // Relative 1e-6: the two compute the same sums in a different order.
+        assert!((contacts[0].normal_mass * k - 1.0).abs() <= 1e-6);
+        assert!(contacts[0].angular);
+    }
+
+    /// A sphere contact through the centres has no angular terms at all.
+    #[test]
+    fn sphere_contacts_skip_angular_terms() {
+        let inv = Mat3::from_diagonal(Vec3::splat(10.0));
+        let bodies = [
+            SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY)
+                .with_mass(1.0, inv, true, BVec3::FALSE),
+            SolverBody::new(Motion::Dynamic, Vec3::new(0.6, 0.8, 0.0), Quat::IDENTITY)
+                .with_mass(1.0, inv, true, BVec3::FALSE),
+        ];
+        let n = Vec3::new(0.6, 0.8, 0.0);
+        let mut contacts = [ContactConstraint::new(0, 1, 0.5 * n, n, 0.0, 0.0, 0.0)];
+        prepare_contacts(&bodies, &mut contacts);
+        assert!(!contacts[0].angular);
+        assert_eq!(contacts[0].normal_mass, 0.5);
+    }
+}

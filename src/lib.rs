@@ -1,0 +1,68 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+pub mod collision;
+pub mod dynamics;
+pub mod impulse;
+pub mod messages;
+pub mod pipeline;
+pub mod scenes;
+pub mod schedule;
+
+use bevy::app::{PluginGroup, PluginGroupBuilder};
+use bevy::ecs::intern::Interned;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::prelude::*;
+
+pub use messages::{CollisionEnded, CollisionStarted, Impact};
+
+/// Everything a user of the plugin writes.
+pub mod prelude {
+    pub use crate::PhysicsPlugins;
+    pub use crate::collision::Collider;
+    pub use crate::dynamics::{
+        AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
+        LockedAxes, Mass, Quarantined, Restitution, RigidBody, SolverConfig, SolverMethod,
+        SolverStats,
+    };
+    pub use crate::messages::{CollisionEnded, CollisionStarted, Impact};
+    pub use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+}
+
+/// All of impact3d's plugins. `PhysicsPlugins::default()` steps physics in `FixedPostUpdate`;
+/// `PhysicsPlugins::new(schedule)` in another schedule. Each plugin can be replaced with
+/// `PhysicsPlugins::default().set(...)` or left out with `.disable::<P>()`.
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+///
+/// App::new().add_plugins((MinimalPlugins, PhysicsPlugins::default()));
+/// ```
+pub struct PhysicsPlugins {
+    schedule: Interned<dyn ScheduleLabel>,
+}
+
+impl PhysicsPlugins {
+    /// Physics stepped once per run of `schedule`, with that schedule's `Time` delta as `dt`.
+    pub fn new(schedule: impl ScheduleLabel) -> Self {
+        PhysicsPlugins { schedule: schedule.intern() }
+    }
+}
+
+impl Default for PhysicsPlugins {
+    fn default() -> Self {
+        Self::new(FixedPostUpdate)
+    }
+}
+
+impl PluginGroup for PhysicsPlugins {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add(schedule::PhysicsSchedulePlugin { schedule: self.schedule })
+            .add(collision::CollisionPlugin)
+            .add(dynamics::DynamicsPlugin)
+    }
+}

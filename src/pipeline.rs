@@ -1,0 +1,427 @@
+//! The ECS systems of a physics step: thin gather and scatter around the plain functions of
+//! [`crate::collision`] and [`crate::dynamics::solver`]. Their order is set in
+//! [`crate::schedule`].
+
+use std::ops::Range;
+
+use bevy::ecs::query::QueryData;
+use bevy::prelude::*;
+use parry3d::bounding_volume::BoundingVolume;
+use parry3d::math::Pose;
+use parry3d::shape::SharedShape;
+
+use crate::collision::broad_phase::sweep_and_prune;
+use crate::collision::narrow_phase::{ContactImpulse, TOUCH_DISTANCE};
+use crate::collision::{Collider, ContactPairs};
+use crate::dynamics::solver::{self, ContactConstraint, Motion, SolverBody};
+use crate::dynamics::{
+    AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
+    LockedAxes, Mass, Quarantined, Restitution, RigidBody, SolverConfig, SolverStats,
+};
+use crate::messages::{CollisionEnded, CollisionStarted, Impact};
+
+/// The packed arrays of the current step, gathered once and shared by the stages.
+#[derive(Resource, Default)]
+pub struct PhysicsState {
+    /// Step length, s.
+    dt: f32,
+    /// The entity of each solver body.
+    entities: Vec<Entity>,
+    /// Solver bodies, in the order of `entities`.
+    bodies: Vec<SolverBody>,
+    /// Local centre of mass of each body (the pose in `Transform` is the body origin).
+    local_com: Vec<Vec3>,
+    shapes: Vec<SharedShape>,
+    /// Collider pose (the body origin) at the start of the step.
+    poses: Vec<Pose>,
+    restitution: Vec<f32>,
+    friction: Vec<f32>,
+    /// How far each body can move in one step, m: `|v| dt + |w| dt R`.
+    reach: Vec<f32>,
+    aabbs: Vec<parry3d::bounding_volume::Aabb>,
+    index_pairs: Vec<(u32, u32)>,
+    sort_scratch: Vec<u32>,
+    /// Broad-phase pairs as entities `(a, b)`, `a < b`, sorted, with their body indices.
+    candidates: Vec<(Entity, Entity)>,
+    candidate_indices: Vec<(usize, usize)>,
+    contacts: Vec<ContactConstraint>,
+    /// Contact index ranges of one body pair each.
+    pair_ranges: Vec<Range<usize>>,
+    /// For each contact: (pair, manifold, point) in [`ContactPairs`].
+    contact_keys: Vec<(u32, u32, u32)>,
+    impacts: Vec<Impact>,
+    started: Vec<(Entity, Entity)>,
+    ended: Vec<(Entity, Entity)>,
+    /// Steps since the propagation bound warning was last logged.
+    steps_since_bound_warning: u32,
+}
+
+/// The components of a body as the prepare stage reads them.
+#[derive(QueryData)]
+#[query_data(mutable)]
+pub struct BodyData {
+    entity: Entity,
+    collider: Ref<'static, Collider>,
+    body: Option<Ref<'static, RigidBody>>,
+    transform: &'static Transform,
+    linear_velocity: Option<&'static LinearVelocity>,
+    angular_velocity: Option<&'static AngularVelocity>,
+    restitution: Option<Ref<'static, Restitution>>,
+    friction: Option<Ref<'static, Friction>>,
+    mass: Option<Ref<'static, Mass>>,
+    density: Option<Ref<'static, Density>>,
+    computed: Option<&'static mut ComputedMass>,
+    locked: Option<&'static LockedAxes>,
+    quarantined: Option<&'static Quarantined>,
+}
+
+/// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
+/// mass properties up to date and packs the solver bodies. A collider without a `RigidBody` is
+/// static.
+pub fn prepare_bodies(
+    mut commands: Commands,
+    time: Res<Time>,
+    config: Res<SolverConfig>,
+    mut state: ResMut<PhysicsState>,
+    mut query: Query<BodyData>,
+) {
+    let state = &mut *state;
+    let dt = time.delta_secs();
+    state.dt = dt;
+    state.entities.clear();
+    state.bodies.clear();
+    state.local_com.clear();
+    state.shapes.clear();
+    state.poses.clear();
+    state.restitution.clear();
+    state.friction.clear();
+    state.reach.clear();
+    state.aabbs.clear();
+
+    for mut item in query.iter_mut() {
+        let entity = item.entity;
+        let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
+        let check = validate(&mut item, kind);
+        match (check, item.quarantined) {
+            (Err(reason), quarantined) => {
+                if quarantined.is_none_or(|q| q.reason != reason) {
+                    log::error!(
+                        "impact3d: body {entity} is left out of the physics step: {reason}"
+                    );
+                    commands.entity(entity).insert(Quarantined { reason });
+                }
+                continue;
+            }
+            (Ok(()), Some(_)) => {
+                log::info!("impact3d: body {entity} is valid again and rejoins the physics step");
+                commands.entity(entity).remove::<Quarantined>();
+            }
+            (Ok(()), None) => {}
+        }
+        warn_on_coefficient_change(entity, item.restitution.as_ref(), "restitution", 1.0);
+        warn_on_coefficient_change(entity, item.friction.as_ref(), "friction", f32::INFINITY);
+
+        let rotation = item.transform.rotation.normalize();
+        let translation = item.transform.translation;
+        let motion = match kind {
+            RigidBody::Dynamic => Motion::Dynamic,
+            RigidBody::Kinematic => Motion::Kinematic,
+            RigidBody::Static => Motion::Static,
+        };
+        let computed = item.computed.as_deref().copied().unwrap_or_default();
+        let local_com = if motion == Motion::Dynamic { computed.local_center_of_mass } else { Vec3::ZERO };
+        let linear = item.linear_velocity.map_or(Vec3::ZERO, |v| v.0);
+        let angular = item.angular_velocity.map_or(Vec3::ZERO, |w| w.0);
+        let body = SolverBody::new(motion, translation + rotation * local_com, rotation)
+            .with_mass(
+                computed.inverse_mass,
+                computed.local_inverse_inertia,
+                computed.isotropic,
+                item.locked.map_or(BVec3::FALSE, |l| l.rotation),
+            )
+            .with_velocity(linear, angular);
+
+        let shape = item.collider.shape().clone();
+        let pose = Pose::from_parts(translation, rotation);
+        let reach = if config.speculative_contacts && motion != Motion::Static {
+            let radius = if item.collider.is_unbounded_or_hollow() && motion != Motion::Kinematic {
+                0.0
+            } else {
+                let local = shape.compute_local_aabb();
+                (local.mins - local_com).abs().max((local.maxs - local_com).abs()).length()
+            };
+            (body.linear_velocity.length() + body.angular_velocity.length() * radius) * dt
+        } else {
+            0.0
+        };
+        let aabb = shape.compute_aabb(&pose).loosened(0.5 * config.contact_margin + reach);
+
+        state.entities.push(entity);
+        state.bodies.push(body);
+        state.local_com.push(local_com);
+        state.shapes.push(shape);
+        state.poses.push(pose);
+        state.restitution.push(clamp_coefficient(item.restitution.as_deref().map(|r| r.0), 1.0));
+        state.friction.push(clamp_coefficient(item.friction.as_deref().map(|f| f.0), f32::INFINITY));
+        state.reach.push(reach);
+        state.aabbs.push(aabb);
+    }
+}
+
+/// Checks one body's input and refreshes its mass properties when their inputs changed.
+fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
+    if let Some(error) = item.collider.error() {
+        return Err(format!("invalid collider: {error}"));
+    }
+    let t = item.transform;
+    if !t.translation.is_finite() {
+        return Err(format!("non-finite translation {}", t.translation));
+    }
+    if !t.rotation.is_finite() || t.rotation.length_squared() < 1e-12 {
+        return Err(format!("invalid rotation {}", t.rotation));
+    }
+    if kind != RigidBody::Static {
+        if let Some(v) = item.linear_velocity.filter(|v| !v.is_finite()) {
+            return Err(format!("non-finite linear velocity {}", v.0));
+        }
+        if let Some(w) = item.angular_velocity.filter(|w| !w.is_finite()) {
+            return Err(format!("non-finite angular velocity {}", w.0));
+        }
+    }
+    if kind == RigidBody::Dynamic {
+        let changed = item.collider.is_changed()
+            || item.body.as_ref().is_some_and(|b| b.is_changed())
+            || item.mass.as_ref().is_some_and(|m| m.is_changed())
+            || item.density.as_ref().is_some_and(|d| d.is_changed())
+            || item.quarantined.is_some()
+            || item.computed.as_ref().is_none_or(|c| c.inverse_mass == 0.0);
+        if changed {
+            let density = item.density.as_deref().map_or(Density::default().0, |d| d.0);
+            let computed =
+                ComputedMass::from_collider(&item.collider, density, item.mass.as_deref().map(|m| m.0))?;
+            if let Some(c) = item.computed.as_deref_mut() {
+                *c = computed;
+            }
+        }
+        if item.computed.is_none() {
+            return Err("dynamic body has no ComputedMass component".to_string());
+        }
+    }
+    Ok(())
+}
+
+/// Warns, naming the entity, when a coefficient is set outside `[0, max]` or to NaN.
+fn warn_on_coefficient_change<T: std::ops::Deref<Target = f32> + Component>(
+    entity: Entity,
+    value: Option<&Ref<T>>,
+    what: &str,
+    max: f32,
+) {
+    let Some(value) = value.filter(|v| v.is_changed()) else { return };
+    let v = ***value;
+    if !(0.0..=max).contains(&v) {
+        log::warn!(
+            "impact3d: body {entity} has {what} {v}, outside [0, {max}]; it is clamped to {}",
+            clamp_coefficient(Some(v), max)
+        );
+    }
+}
+
+/// Clamps a coefficient into `[0, max]`; NaN and missing become 0.
+fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
+    match value {
+        Some(v) if v.is_nan() => 0.0,
+        Some(v) => v.clamp(0.0, max),
+        None => 0.0,
+    }
+}
+
+/// Finds candidate pairs by sweep and prune, keeping only pairs where at least one body is
+/// dynamic.
+pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
+    let state = &mut *state;
+    sweep_and_prune(&state.aabbs, &mut state.index_pairs, &mut state.sort_scratch);
+    let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
+        .index_pairs
+        .iter()
+        .map(|&(i, j)| (i as usize, j as usize))
+        .filter(|&(i, j)| {
+            state.bodies[i].motion == Motion::Dynamic || state.bodies[j].motion == Motion::Dynamic
+        })
+        .map(|(i, j)| {
+            let (ei, ej) = (state.entities[i], state.entities[j]);
+            if ei < ej { ((ei, ej), (i, j)) } else { ((ej, ei), (j, i)) }
+        })
+        .collect();
+    keyed.sort_unstable_by_key(|(k, _)| *k);
+    state.candidates.clear();
+    state.candidate_indices.clear();
+    for (k, idx) in keyed {
+        state.candidates.push(k);
+        state.candidate_indices.push(idx);
+    }
+}
+
+/// Updates the persistent contact pairs and builds one contact constraint per contact point,
+/// carrying each point's impulses from the last step.
+pub fn update_narrow_phase(
+    config: Res<SolverConfig>,
+    mut state: ResMut<PhysicsState>,
+    mut pairs: ResMut<ContactPairs>,
+) {
+    let state = &mut *state;
+    state.ended.clear();
+    state.started.clear();
+    let ended = &mut state.ended;
+    pairs.retain_candidates(&state.candidates, |p| {
+        if p.touching {
+            ended.push((p.a, p.b));
+        }
+    });
+    state.contacts.clear();
+    state.pair_ranges.clear();
+    state.contact_keys.clear();
+    for (pair_index, (pair, &(ia, ib))) in
+        pairs.pairs_mut().iter_mut().zip(&state.candidate_indices).enumerate()
+    {
+        let prediction = config.contact_margin + state.reach[ia] + state.reach[ib];
+        let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
+        if !pair.update(pose_a, state.shapes[ia].as_ref(), pose_b, state.shapes[ib].as_ref(), prediction) {
+            pair.manifolds.clear();
+            continue;
+        }
+        let restitution = state.restitution[ia].max(state.restitution[ib]);
+        let friction = state.friction[ia].max(state.friction[ib]);
+        let start = state.contacts.len();
+        for (m, k, point, normal, dist) in pair.world_points(pose_a, pose_b) {
+            let mut c = ContactConstraint::new(ia, ib, point, normal, dist, restitution, friction);
+            let carried = pair.manifolds[m].points[k].data;
+            c.normal_impulse = carried.normal;
+            c.tangent_impulse = carried.tangent;
+            state.contacts.push(c);
+            state.contact_keys.push((pair_index as u32, m as u32, k as u32));
+        }
+        if state.contacts.len() > start {
+            state.pair_ranges.push(start..state.contacts.len());
+        }
+    }
+}
+
+/// Runs the solver over the packed arrays and stores the impulses back into the manifolds.
+pub fn solve_contacts(
+    config: Res<SolverConfig>,
+    gravity: Res<Gravity>,
+    mut stats: ResMut<SolverStats>,
+    mut state: ResMut<PhysicsState>,
+    mut pairs: ResMut<ContactPairs>,
+) {
+    let state = &mut *state;
+    if state.dt <= 0.0 {
+        return;
+    }
+    *stats = solver::step(
+        &mut state.bodies,
+        &mut state.contacts,
+        &state.pair_ranges,
+        &config,
+        gravity.0,
+        state.dt,
+    );
+    state.steps_since_bound_warning = state.steps_since_bound_warning.saturating_add(1);
+    if stats.propagation_bound_hit && state.steps_since_bound_warning >= 60 {
+        state.steps_since_bound_warning = 0;
+        log::warn!(
+            "impact3d: propagation stopped at its bound of {} sweeps with contacts still \
+             approaching (raise SolverConfig::max_propagation_sweeps)",
+            config.max_propagation_sweeps
+        );
+    }
+
+    let pairs = pairs.pairs_mut();
+    let mut touching = vec![false; pairs.len()];
+    state.impacts.clear();
+    for (c, &(p, m, k)) in state.contacts.iter().zip(&state.contact_keys) {
+        let pair = &mut pairs[p as usize];
+        pair.manifolds[m as usize].points[k as usize].data =
+            ContactImpulse { normal: c.normal_impulse, tangent: c.tangent_impulse };
+        if c.separation <= TOUCH_DISTANCE || c.total_impulse > 0.0 {
+            touching[p as usize] = true;
+        }
+        let report = match config.impact_messages {
+            ImpactMessages::Off => false,
+            ImpactMessages::Impacts => c.impact,
+            ImpactMessages::AllContacts => c.total_impulse > 0.0,
+        };
+        if report {
+            state.impacts.push(Impact {
+                a: pair.a,
+                b: pair.b,
+                point: c.point,
+                normal: c.normal,
+                impulse: c.total_impulse,
+            });
+        }
+    }
+    for (pair, now) in pairs.iter_mut().zip(touching) {
+        match (pair.touching, now) {
+            (false, true) => state.started.push((pair.a, pair.b)),
+            (true, false) => state.ended.push((pair.a, pair.b)),
+            _ => {}
+        }
+        pair.touching = now;
+    }
+}
+
+/// Writes poses and velocities of moving bodies back to their components. A body whose result
+/// is not finite (finite input that overflowed) is not written: it is quarantined instead, so
+/// no NaN ever reaches a component.
+pub fn write_back(
+    mut commands: Commands,
+    state: Res<PhysicsState>,
+    mut query: Query<(&mut Transform, Option<&mut LinearVelocity>, Option<&mut AngularVelocity>)>,
+) {
+    if state.dt <= 0.0 {
+        return;
+    }
+    for ((&entity, body), &local_com) in state.entities.iter().zip(&state.bodies).zip(&state.local_com) {
+        if body.motion == Motion::Static {
+            continue;
+        }
+        let finite = body.position.is_finite()
+            && body.rotation.is_finite()
+            && body.linear_velocity.is_finite()
+            && body.angular_velocity.is_finite();
+        if !finite {
+            let reason = "the step produced a non-finite state (input too large?)".to_string();
+            log::error!("impact3d: body {entity} is left out of the physics step: {reason}");
+            commands.entity(entity).insert(Quarantined { reason });
+            continue;
+        }
+        let Ok((mut transform, linear, angular)) = query.get_mut(entity) else { continue };
+        let translation = body.position - body.rotation * local_com;
+        if transform.translation != translation || transform.rotation != body.rotation {
+            transform.translation = translation;
+            transform.rotation = body.rotation;
+        }
+        if body.motion == Motion::Dynamic {
+            if let Some(mut v) = linear {
+                v.set_if_neq(LinearVelocity(body.linear_velocity));
+            }
+            if let Some(mut w) = angular {
+                w.set_if_neq(AngularVelocity(body.angular_velocity));
+            }
+        }
+    }
+}
+
+/// Writes the step's `Impact`, `CollisionStarted` and `CollisionEnded` messages.
+pub fn send_messages(
+    state: Res<PhysicsState>,
+    mut impacts: MessageWriter<Impact>,
+    mut started: MessageWriter<CollisionStarted>,
+    mut ended: MessageWriter<CollisionEnded>,
+) {
+    impacts.write_batch(state.impacts.iter().copied());
+    started.write_batch(state.started.iter().map(|&(a, b)| CollisionStarted(a, b)));
+    ended.write_batch(state.ended.iter().map(|&(a, b)| CollisionEnded(a, b)));
+}
