@@ -185,11 +185,22 @@ mod tests {
             let ke_before = a.kinetic_energy() + b.kinetic_energy();
             let j = resolve_impact(&mut a, &mut b, Vec3::new(0.5, 0.0, 0.0), Vec3::X, e);
             assert!(close(j, j_expected), "e={e}: j={j}");
-            assert!(close(a.linear_velocity.x, v1), "e={e}: v1'={}", a.linear_velocity.x);
-            assert!(close(b.linear_velocity.x, v2), "e={e}: v2'={}", b.linear_velocity.x);
+            assert!(
+                close(a.linear_velocity.x, v1),
+                "e={e}: v1'={}",
+                a.linear_velocity.x
+            );
+            assert!(
+                close(b.linear_velocity.x, v2),
+                "e={e}: v2'={}",
+                b.linear_velocity.x
+            );
             // Energy lost = mu (1 - e^2) (v1 - v2)^2 / 2 with mu = 3/4, v1 - v2 = 3.
             let lost = ke_before - a.kinetic_energy() - b.kinetic_energy();
-            assert!(close(lost, 0.5 * 0.75 * (1.0 - e * e) * 9.0), "e={e}: lost {lost}");
+            assert!(
+                close(lost, 0.5 * 0.75 * (1.0 - e * e) * 9.0),
+                "e={e}: lost {lost}"
+            );
         }
     }
 
@@ -233,8 +244,10 @@ mod tests {
         // I_body = diag(0, 1/12, 1/12) along (axis, perpendiculars); the rod's own axis carries
         // no inertia, so its inverse is taken as zero there (no torque can act along it here).
         let perp = Vec3::new(-theta.sin(), theta.cos(), 0.0);
-        let inv_i = 12.0 * (Mat3::from_cols(perp, Vec3::ZERO, Vec3::ZERO) * Mat3::from_cols(perp, Vec3::ZERO, Vec3::ZERO).transpose()
-            + Mat3::from_diagonal(Vec3::Z));
+        let inv_i = 12.0
+            * (Mat3::from_cols(perp, Vec3::ZERO, Vec3::ZERO)
+                * Mat3::from_cols(perp, Vec3::ZERO, Vec3::ZERO).transpose()
+                + Mat3::from_diagonal(Vec3::Z));
         let body = ImpulseBody {
             inverse_mass: 1.0,
             inverse_inertia: inv_i,
@@ -258,10 +271,21 @@ mod tests {
             let mut ground = ImpulseBody::fixed(end - Vec3::Y, Vec3::ZERO, Vec3::ZERO);
             let ke_before = body.kinetic_energy_rod();
             resolve_impact(&mut ground, &mut body, end, Vec3::Y, 1.0);
-            assert!(close(body.linear_velocity.y, vy), "{deg}: vy'={}", body.linear_velocity.y);
+            assert!(
+                close(body.linear_velocity.y, vy),
+                "{deg}: vy'={}",
+                body.linear_velocity.y
+            );
             // The lower end is at -x, so the upward impulse there spins the rod about -z.
-            assert!(close(body.angular_velocity.z, wz), "{deg}: w'={}", body.angular_velocity.z);
-            assert!(close(body.kinetic_energy_rod(), ke_before), "{deg}: energy changed");
+            assert!(
+                close(body.angular_velocity.z, wz),
+                "{deg}: w'={}",
+                body.angular_velocity.z
+            );
+            assert!(
+                close(body.kinetic_energy_rod(), ke_before),
+                "{deg}: energy changed"
+            );
         }
     }
 
@@ -277,7 +301,11 @@ mod tests {
             let j = resolve_impact(&mut ground, &mut body, end, Vec3::Y, e);
             assert!(close(j, j_expected), "e={e}: j={j}");
             assert!(close(body.linear_velocity.y, j), "v' = j/m upward");
-            assert!(close(body.angular_velocity.z, w_expected), "e={e}: w'={}", body.angular_velocity.z);
+            assert!(
+                close(body.angular_velocity.z, w_expected),
+                "e={e}: w'={}",
+                body.angular_velocity.z
+            );
         }
     }
 
@@ -287,11 +315,18 @@ mod tests {
         let mut wall = ImpulseBody::fixed(Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::ZERO);
         let mut ball = ImpulseBody::sphere_like(1.0, Vec3::X, Vec3::new(-3.0, 0.0, 0.0));
         resolve_impact(&mut wall, &mut ball, Vec3::new(0.5, 0.0, 0.0), Vec3::X, 0.8);
-        assert!(close(ball.linear_velocity.x, 6.0), "{}", ball.linear_velocity.x);
+        assert!(
+            close(ball.linear_velocity.x, 6.0),
+            "{}",
+            ball.linear_velocity.x
+        );
         assert_eq!(wall.linear_velocity, Vec3::new(2.0, 0.0, 0.0));
         // Two fixed bodies: K = 0, no impulse.
         let mut other = ImpulseBody::fixed(Vec3::X, Vec3::new(-1.0, 0.0, 0.0), Vec3::ZERO);
-        assert_eq!(resolve_impact(&mut wall, &mut other, Vec3::X, Vec3::X, 1.0), 0.0);
+        assert_eq!(
+            resolve_impact(&mut wall, &mut other, Vec3::X, Vec3::X, 1.0),
+            0.0
+        );
     }
 
     /// Case 7: for any single impulse, delta KE = -(1 - e^2) v_n^2 / (2K), and linear and angular
@@ -300,7 +335,9 @@ mod tests {
     fn energy_identity_and_momentum_for_an_off_centre_impact() {
         let inv_a = Mat3::from_diagonal(Vec3::new(6.0, 3.0, 2.0));
         let rot = bevy::math::Quat::from_rotation_y(0.4) * bevy::math::Quat::from_rotation_x(0.3);
-        let inv_b = Mat3::from_quat(rot) * Mat3::from_diagonal(Vec3::new(1.5, 4.0, 2.5)) * Mat3::from_quat(rot).transpose();
+        let inv_b = Mat3::from_quat(rot)
+            * Mat3::from_diagonal(Vec3::new(1.5, 4.0, 2.5))
+            * Mat3::from_quat(rot).transpose();
         for e in [0.0, 0.3, 1.0] {
             let mut a = ImpulseBody {
                 inverse_mass: 0.5,
@@ -316,7 +353,10 @@ mod tests {
                 linear_velocity: Vec3::new(-0.5, 0.0, 0.3),
                 angular_velocity: Vec3::new(-0.2, 0.4, 0.1),
             };
-            let (p, n) = (Vec3::new(0.6, 0.35, 0.2), Vec3::new(0.9, 0.3, 0.1).normalize());
+            let (p, n) = (
+                Vec3::new(0.6, 0.35, 0.2),
+                Vec3::new(0.9, 0.3, 0.1).normalize(),
+            );
             let vn = normal_velocity(&a, &b, p, n);
             let k = inverse_effective_mass(&a, &b, p, n);
             let momentum = |a: &ImpulseBody, b: &ImpulseBody| {
@@ -333,7 +373,10 @@ mod tests {
             );
             resolve_impact(&mut a, &mut b, p, n, e);
             let ke1 = a.kinetic_energy() + b.kinetic_energy();
-            assert!(close(ke1 - ke0, -(1.0 - e * e) * vn * vn / (2.0 * k)), "e={e}");
+            assert!(
+                close(ke1 - ke0, -(1.0 - e * e) * vn * vn / (2.0 * k)),
+                "e={e}"
+            );
             assert!((momentum(&a, &b) - p0).length() <= TOL);
             assert!((angular(&a) + angular(&b) - l0).length() <= TOL);
             // With e = 1 the contact leaves separating at the speed it approached.

@@ -48,7 +48,9 @@ pub struct PhysicsPlugins {
 impl PhysicsPlugins {
     /// Physics stepped once per run of `schedule`, with that schedule's `Time` delta as `dt`.
     pub fn new(schedule: impl ScheduleLabel) -> Self {
-        PhysicsPlugins { schedule: schedule.intern() }
+        PhysicsPlugins {
+            schedule: schedule.intern(),
+        }
     }
 }
 
@@ -61,7 +63,9 @@ impl Default for PhysicsPlugins {
 impl PluginGroup for PhysicsPlugins {
     fn build(self) -> PluginGroupBuilder {
         PluginGroupBuilder::start::<Self>()
-            .add(schedule::PhysicsSchedulePlugin { schedule: self.schedule })
+            .add(schedule::PhysicsSchedulePlugin {
+                schedule: self.schedule,
+            })
             .add(collision::CollisionPlugin)
             .add(dynamics::DynamicsPlugin)
     }

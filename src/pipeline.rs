@@ -129,7 +129,11 @@ pub fn prepare_bodies(
             RigidBody::Static => Motion::Static,
         };
         let computed = item.computed.as_deref().copied().unwrap_or_default();
-        let local_com = if motion == Motion::Dynamic { computed.local_center_of_mass } else { Vec3::ZERO };
+        let local_com = if motion == Motion::Dynamic {
+            computed.local_center_of_mass
+        } else {
+            Vec3::ZERO
+        };
         let linear = item.linear_velocity.map_or(Vec3::ZERO, |v| v.0);
         let angular = item.angular_velocity.map_or(Vec3::ZERO, |w| w.0);
         let body = SolverBody::new(motion, translation + rotation * local_com, rotation)
@@ -148,21 +152,32 @@ pub fn prepare_bodies(
                 0.0
             } else {
                 let local = shape.compute_local_aabb();
-                (local.mins - local_com).abs().max((local.maxs - local_com).abs()).length()
+                (local.mins - local_com)
+                    .abs()
+                    .max((local.maxs - local_com).abs())
+                    .length()
             };
             (body.linear_velocity.length() + body.angular_velocity.length() * radius) * dt
         } else {
             0.0
         };
-        let aabb = shape.compute_aabb(&pose).loosened(0.5 * config.contact_margin + reach);
+        let aabb = shape
+            .compute_aabb(&pose)
+            .loosened(0.5 * config.contact_margin + reach);
 
         state.entities.push(entity);
         state.bodies.push(body);
         state.local_com.push(local_com);
         state.shapes.push(shape);
         state.poses.push(pose);
-        state.restitution.push(clamp_coefficient(item.restitution.as_deref().map(|r| r.0), 1.0));
-        state.friction.push(clamp_coefficient(item.friction.as_deref().map(|f| f.0), f32::INFINITY));
+        state.restitution.push(clamp_coefficient(
+            item.restitution.as_deref().map(|r| r.0),
+            1.0,
+        ));
+        state.friction.push(clamp_coefficient(
+            item.friction.as_deref().map(|f| f.0),
+            f32::INFINITY,
+        ));
         state.reach.push(reach);
         state.aabbs.push(aabb);
     }
@@ -196,9 +211,15 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
             || item.quarantined.is_some()
             || item.computed.as_ref().is_none_or(|c| c.inverse_mass == 0.0);
         if changed {
-            let density = item.density.as_deref().map_or(Density::default().0, |d| d.0);
-            let computed =
-                ComputedMass::from_collider(&item.collider, density, item.mass.as_deref().map(|m| m.0))?;
+            let density = item
+                .density
+                .as_deref()
+                .map_or(Density::default().0, |d| d.0);
+            let computed = ComputedMass::from_collider(
+                &item.collider,
+                density,
+                item.mass.as_deref().map(|m| m.0),
+            )?;
             if let Some(c) = item.computed.as_deref_mut() {
                 *c = computed;
             }
@@ -217,7 +238,9 @@ fn warn_on_coefficient_change<T: std::ops::Deref<Target = f32> + Component>(
     what: &str,
     max: f32,
 ) {
-    let Some(value) = value.filter(|v| v.is_changed()) else { return };
+    let Some(value) = value.filter(|v| v.is_changed()) else {
+        return;
+    };
     let v = ***value;
     if !(0.0..=max).contains(&v) {
         log::warn!(
@@ -240,7 +263,11 @@ fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
 /// dynamic.
 pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
     let state = &mut *state;
-    sweep_and_prune(&state.aabbs, &mut state.index_pairs, &mut state.sort_scratch);
+    sweep_and_prune(
+        &state.aabbs,
+        &mut state.index_pairs,
+        &mut state.sort_scratch,
+    );
     let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
         .index_pairs
         .iter()
@@ -250,7 +277,11 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
         })
         .map(|(i, j)| {
             let (ei, ej) = (state.entities[i], state.entities[j]);
-            if ei < ej { ((ei, ej), (i, j)) } else { ((ej, ei), (j, i)) }
+            if ei < ej {
+                ((ei, ej), (i, j))
+            } else {
+                ((ej, ei), (j, i))
+            }
         })
         .collect();
     keyed.sort_unstable_by_key(|(k, _)| *k);
@@ -281,12 +312,21 @@ pub fn update_narrow_phase(
     state.contacts.clear();
     state.pair_ranges.clear();
     state.contact_keys.clear();
-    for (pair_index, (pair, &(ia, ib))) in
-        pairs.pairs_mut().iter_mut().zip(&state.candidate_indices).enumerate()
+    for (pair_index, (pair, &(ia, ib))) in pairs
+        .pairs_mut()
+        .iter_mut()
+        .zip(&state.candidate_indices)
+        .enumerate()
     {
         let prediction = config.contact_margin + state.reach[ia] + state.reach[ib];
         let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
-        if !pair.update(pose_a, state.shapes[ia].as_ref(), pose_b, state.shapes[ib].as_ref(), prediction) {
+        if !pair.update(
+            pose_a,
+            state.shapes[ia].as_ref(),
+            pose_b,
+            state.shapes[ib].as_ref(),
+            prediction,
+        ) {
             pair.manifolds.clear();
             continue;
         }
@@ -299,7 +339,9 @@ pub fn update_narrow_phase(
             c.normal_impulse = carried.normal;
             c.tangent_impulse = carried.tangent;
             state.contacts.push(c);
-            state.contact_keys.push((pair_index as u32, m as u32, k as u32));
+            state
+                .contact_keys
+                .push((pair_index as u32, m as u32, k as u32));
         }
         if state.contacts.len() > start {
             state.pair_ranges.push(start..state.contacts.len());
@@ -342,8 +384,10 @@ pub fn solve_contacts(
     state.impacts.clear();
     for (c, &(p, m, k)) in state.contacts.iter().zip(&state.contact_keys) {
         let pair = &mut pairs[p as usize];
-        pair.manifolds[m as usize].points[k as usize].data =
-            ContactImpulse { normal: c.normal_impulse, tangent: c.tangent_impulse };
+        pair.manifolds[m as usize].points[k as usize].data = ContactImpulse {
+            normal: c.normal_impulse,
+            tangent: c.tangent_impulse,
+        };
         if c.separation <= TOUCH_DISTANCE || c.total_impulse > 0.0 {
             touching[p as usize] = true;
         }
@@ -378,12 +422,21 @@ pub fn solve_contacts(
 pub fn write_back(
     mut commands: Commands,
     state: Res<PhysicsState>,
-    mut query: Query<(&mut Transform, Option<&mut LinearVelocity>, Option<&mut AngularVelocity>)>,
+    mut query: Query<(
+        &mut Transform,
+        Option<&mut LinearVelocity>,
+        Option<&mut AngularVelocity>,
+    )>,
 ) {
     if state.dt <= 0.0 {
         return;
     }
-    for ((&entity, body), &local_com) in state.entities.iter().zip(&state.bodies).zip(&state.local_com) {
+    for ((&entity, body), &local_com) in state
+        .entities
+        .iter()
+        .zip(&state.bodies)
+        .zip(&state.local_com)
+    {
         if body.motion == Motion::Static {
             continue;
         }
@@ -397,7 +450,9 @@ pub fn write_back(
             commands.entity(entity).insert(Quarantined { reason });
             continue;
         }
-        let Ok((mut transform, linear, angular)) = query.get_mut(entity) else { continue };
+        let Ok((mut transform, linear, angular)) = query.get_mut(entity) else {
+            continue;
+        };
         let translation = body.position - body.rotation * local_com;
         if transform.translation != translation || transform.rotation != body.rotation {
             transform.translation = translation;

@@ -63,14 +63,22 @@ pub fn cuboid(half: Vec3, mass: f32, position: Vec3) -> impl Bundle {
 
 /// Static ground: the half-space `y < 0`.
 pub fn ground(world: &mut World) -> Entity {
-    world.spawn((RigidBody::Static, Collider::half_space(Vec3::Y), Transform::IDENTITY)).id()
+    world
+        .spawn((
+            RigidBody::Static,
+            Collider::half_space(Vec3::Y),
+            Transform::IDENTITY,
+        ))
+        .id()
 }
 
 /// A 1 m cube of 1 kg dropped from 2 m onto the ground (default gravity); it comes to rest with
 /// its centre at y = 0.5. Returns (ground, cube).
 pub fn box_drop(world: &mut World) -> (Entity, Entity) {
     let ground = ground(world);
-    let cube = world.spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 2.0, 0.0))).id();
+    let cube = world
+        .spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 2.0, 0.0)))
+        .id();
     (ground, cube)
 }
 
@@ -81,7 +89,15 @@ pub fn bouncing_ball(world: &mut World, h0: f32, e: f32) -> (Entity, Entity) {
     world.insert_resource(Gravity(Vec3::new(0.0, -10.0, 0.0)));
     let ground = ground(world);
     let ball = world
-        .spawn((ball(BOUNCE_RADIUS, 1.0, Vec3::new(0.0, h0 + BOUNCE_RADIUS, 0.0), Vec3::ZERO), Restitution(e)))
+        .spawn((
+            ball(
+                BOUNCE_RADIUS,
+                1.0,
+                Vec3::new(0.0, h0 + BOUNCE_RADIUS, 0.0),
+                Vec3::ZERO,
+            ),
+            Restitution(e),
+        ))
         .id();
     (ground, ball)
 }
@@ -93,8 +109,18 @@ pub const BOUNCE_RADIUS: f32 = 0.1;
 /// of radius 0.5 just touching, restitution `e`. Returns (ball 1, ball 2).
 pub fn head_on(world: &mut World, e: f32) -> (Entity, Entity) {
     world.insert_resource(Gravity(Vec3::ZERO));
-    let a = world.spawn((ball(0.5, 1.0, Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0)), Restitution(e))).id();
-    let b = world.spawn((ball(0.5, 3.0, Vec3::X, Vec3::new(-1.0, 0.0, 0.0)), Restitution(e))).id();
+    let a = world
+        .spawn((
+            ball(0.5, 1.0, Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0)),
+            Restitution(e),
+        ))
+        .id();
+    let b = world
+        .spawn((
+            ball(0.5, 3.0, Vec3::X, Vec3::new(-1.0, 0.0, 0.0)),
+            Restitution(e),
+        ))
+        .id();
     (a, b)
 }
 
@@ -104,10 +130,22 @@ pub fn oblique(world: &mut World, e: f32) -> (Entity, Entity) {
     world.insert_resource(Gravity(Vec3::ZERO));
     let angle = 30f32.to_radians();
     let a = world
-        .spawn((ball(0.5, 1.0, Vec3::ZERO, Vec3::X), AngularVelocity(Vec3::new(0.0, 0.0, 5.0)), Restitution(e)))
+        .spawn((
+            ball(0.5, 1.0, Vec3::ZERO, Vec3::X),
+            AngularVelocity(Vec3::new(0.0, 0.0, 5.0)),
+            Restitution(e),
+        ))
         .id();
     let b = world
-        .spawn((ball(0.5, 1.0, Vec3::new(angle.cos(), angle.sin(), 0.0), Vec3::ZERO), Restitution(e)))
+        .spawn((
+            ball(
+                0.5,
+                1.0,
+                Vec3::new(angle.cos(), angle.sin(), 0.0),
+                Vec3::ZERO,
+            ),
+            Restitution(e),
+        ))
         .id();
     (a, b)
 }
@@ -118,8 +156,17 @@ pub fn cradle(world: &mut World, n: usize, speed: f32, e: f32) -> Vec<Entity> {
     world.insert_resource(Gravity(Vec3::ZERO));
     (0..n)
         .map(|i| {
-            let v = if i == 0 { Vec3::new(speed, 0.0, 0.0) } else { Vec3::ZERO };
-            world.spawn((ball(0.5, 1.0, Vec3::new(i as f32, 0.0, 0.0), v), Restitution(e))).id()
+            let v = if i == 0 {
+                Vec3::new(speed, 0.0, 0.0)
+            } else {
+                Vec3::ZERO
+            };
+            world
+                .spawn((
+                    ball(0.5, 1.0, Vec3::new(i as f32, 0.0, 0.0), v),
+                    Restitution(e),
+                ))
+                .id()
         })
         .collect()
 }
@@ -147,8 +194,18 @@ pub fn galilean_cannon(world: &mut World, m1: f32, m2: f32, v0: f32) -> (Entity,
     world.insert_resource(Gravity(Vec3::ZERO));
     let ground = ground(world);
     let down = Vec3::new(0.0, -v0, 0.0);
-    let b1 = world.spawn((ball(0.5, m1, Vec3::new(0.0, 0.505, 0.0), down), Restitution(1.0))).id();
-    let b2 = world.spawn((ball(0.5, m2, Vec3::new(0.0, 1.505, 0.0), down), Restitution(1.0))).id();
+    let b1 = world
+        .spawn((
+            ball(0.5, m1, Vec3::new(0.0, 0.505, 0.0), down),
+            Restitution(1.0),
+        ))
+        .id();
+    let b2 = world
+        .spawn((
+            ball(0.5, m2, Vec3::new(0.0, 1.505, 0.0), down),
+            Restitution(1.0),
+        ))
+        .id();
     (ground, b1, b2)
 }
 
@@ -156,7 +213,12 @@ pub fn galilean_cannon(world: &mut World, m1: f32, m2: f32, v0: f32) -> (Entity,
 /// Returns (ground, cube).
 pub fn resting_box(world: &mut World, e: f32) -> (Entity, Entity) {
     let ground = ground(world);
-    let cube = world.spawn((cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0)), Restitution(e))).id();
+    let cube = world
+        .spawn((
+            cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0)),
+            Restitution(e),
+        ))
+        .id();
     (ground, cube)
 }
 
@@ -165,7 +227,15 @@ pub fn resting_box(world: &mut World, e: f32) -> (Entity, Entity) {
 pub fn stack(world: &mut World, n: usize) -> Vec<Entity> {
     ground(world);
     (0..n)
-        .map(|i| world.spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5 + i as f32, 0.0))).id())
+        .map(|i| {
+            world
+                .spawn(cuboid(
+                    Vec3::splat(0.5),
+                    1.0,
+                    Vec3::new(0.0, 0.5 + i as f32, 0.0),
+                ))
+                .id()
+        })
         .collect()
 }
 
@@ -179,7 +249,15 @@ pub fn pyramid(world: &mut World, base: usize) -> Vec<Entity> {
         let count = base - row;
         for i in 0..count {
             let x = (i as f32 - (count - 1) as f32 * 0.5) * 1.05;
-            cubes.push(world.spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(x, 0.5 + row as f32, 0.0))).id());
+            cubes.push(
+                world
+                    .spawn(cuboid(
+                        Vec3::splat(0.5),
+                        1.0,
+                        Vec3::new(x, 0.5 + row as f32, 0.0),
+                    ))
+                    .id(),
+            );
         }
     }
     cubes
@@ -189,8 +267,12 @@ pub fn pyramid(world: &mut World, base: usize) -> Vec<Entity> {
 /// Returns (light, heavy).
 pub fn heavy_on_light(world: &mut World, ratio: f32) -> (Entity, Entity) {
     ground(world);
-    let light = world.spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0))).id();
-    let heavy = world.spawn(cuboid(Vec3::splat(0.5), ratio, Vec3::new(0.0, 1.5, 0.0))).id();
+    let light = world
+        .spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0)))
+        .id();
+    let heavy = world
+        .spawn(cuboid(Vec3::splat(0.5), ratio, Vec3::new(0.0, 1.5, 0.0)))
+        .id();
     (light, heavy)
 }
 
@@ -199,9 +281,20 @@ pub fn heavy_on_light(world: &mut World, ratio: f32) -> (Entity, Entity) {
 pub fn fast_thin_wall(world: &mut World) -> (Entity, Entity) {
     world.insert_resource(Gravity(Vec3::ZERO));
     let wall = world
-        .spawn((RigidBody::Static, Collider::cuboid(0.005, 2.0, 2.0), Transform::from_xyz(0.005, 0.0, 0.0)))
+        .spawn((
+            RigidBody::Static,
+            Collider::cuboid(0.005, 2.0, 2.0),
+            Transform::from_xyz(0.005, 0.0, 0.0),
+        ))
         .id();
-    let sphere = world.spawn(ball(0.05, 1.0, Vec3::new(-1.0, 0.0, 0.0), Vec3::new(100.0, 0.0, 0.0))).id();
+    let sphere = world
+        .spawn(ball(
+            0.05,
+            1.0,
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(100.0, 0.0, 0.0),
+        ))
+        .id();
     (wall, sphere)
 }
 
@@ -209,14 +302,32 @@ pub fn fast_thin_wall(world: &mut World) -> (Entity, Entity) {
 pub fn container(world: &mut World, half: f32, height: f32) -> Vec<Entity> {
     let t = 0.5;
     let mut spawn = |size: Vec3, at: Vec3| {
-        world.spawn((RigidBody::Static, Collider::cuboid(size.x, size.y, size.z), Transform::from_translation(at))).id()
+        world
+            .spawn((
+                RigidBody::Static,
+                Collider::cuboid(size.x, size.y, size.z),
+                Transform::from_translation(at),
+            ))
+            .id()
     };
     vec![
         spawn(Vec3::new(half + t, t, half + t), Vec3::new(0.0, -t, 0.0)),
-        spawn(Vec3::new(t, height * 0.5, half + t), Vec3::new(-half - t, height * 0.5, 0.0)),
-        spawn(Vec3::new(t, height * 0.5, half + t), Vec3::new(half + t, height * 0.5, 0.0)),
-        spawn(Vec3::new(half, height * 0.5, t), Vec3::new(0.0, height * 0.5, -half - t)),
-        spawn(Vec3::new(half, height * 0.5, t), Vec3::new(0.0, height * 0.5, half + t)),
+        spawn(
+            Vec3::new(t, height * 0.5, half + t),
+            Vec3::new(-half - t, height * 0.5, 0.0),
+        ),
+        spawn(
+            Vec3::new(t, height * 0.5, half + t),
+            Vec3::new(half + t, height * 0.5, 0.0),
+        ),
+        spawn(
+            Vec3::new(half, height * 0.5, t),
+            Vec3::new(0.0, height * 0.5, -half - t),
+        ),
+        spawn(
+            Vec3::new(half, height * 0.5, t),
+            Vec3::new(0.0, height * 0.5, half + t),
+        ),
     ]
 }
 
@@ -252,7 +363,11 @@ pub fn sparse_flight(world: &mut World, n: usize) -> Vec<Entity> {
         .map(|i| {
             let (x, y, z) = (i % side, (i / side) % side, i / (side * side));
             let p = Vec3::new(x as f32, y as f32, z as f32) * 2.0;
-            let v = Vec3::new(((i * 7) % 5) as f32 - 2.0, ((i * 3) % 5) as f32 - 2.0, ((i * 11) % 5) as f32 - 2.0) * 0.1;
+            let v = Vec3::new(
+                ((i * 7) % 5) as f32 - 2.0,
+                ((i * 3) % 5) as f32 - 2.0,
+                ((i * 11) % 5) as f32 - 2.0,
+            ) * 0.1;
             world.spawn(ball(0.25, 1.0, p, v)).id()
         })
         .collect()

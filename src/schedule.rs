@@ -63,7 +63,10 @@ impl Plugin for PhysicsSchedulePlugin {
         app.add_schedule(schedule);
         app.init_resource::<PhysicsState>();
         app.add_systems(self.schedule, run_physics_schedule);
-        app.add_systems(PhysicsSchedule, pipeline::send_messages.in_set(PhysicsSystems::Messages));
+        app.add_systems(
+            PhysicsSchedule,
+            pipeline::send_messages.in_set(PhysicsSystems::Messages),
+        );
     }
 }
 

@@ -61,7 +61,8 @@ fn sweep_axis(aabbs: &[Aabb]) -> usize {
     let mut n = 0.0f64;
     for b in aabbs {
         let extent = b.maxs - b.mins;
-        if !(extent.max_element() < 1e6) {
+        // Unbounded boxes (a half-space's) and NaN extents say nothing about the spread.
+        if extent.max_element().partial_cmp(&1e6) != Some(std::cmp::Ordering::Less) {
             continue;
         }
         n += 1.0;
@@ -75,7 +76,9 @@ fn sweep_axis(aabbs: &[Aabb]) -> usize {
         return 0;
     }
     let variance = |k: usize| sum_sq[k] / n - (sum[k] / n).powi(2);
-    (0..3).max_by(|&i, &j| variance(i).total_cmp(&variance(j)).then(j.cmp(&i))).unwrap_or(0)
+    (0..3)
+        .max_by(|&i, &j| variance(i).total_cmp(&variance(j)).then(j.cmp(&i)))
+        .unwrap_or(0)
 }
 
 #[cfg(test)]
@@ -99,7 +102,10 @@ mod tests {
                 Aabb::new(c - h, c + h)
             })
             .collect();
-        boxes.push(Aabb::new(Vec3::splat(-f32::MAX * 0.5), Vec3::splat(f32::MAX * 0.5)));
+        boxes.push(Aabb::new(
+            Vec3::splat(-f32::MAX * 0.5),
+            Vec3::splat(f32::MAX * 0.5),
+        ));
         let (mut pairs, mut order) = (Vec::new(), Vec::new());
         sweep_and_prune(&boxes, &mut pairs, &mut order);
         let mut brute = Vec::new();
@@ -111,6 +117,9 @@ mod tests {
             }
         }
         assert_eq!(pairs, brute);
-        assert!(pairs.len() > 300, "the unbounded box pairs with all 300 others");
+        assert!(
+            pairs.len() > 300,
+            "the unbounded box pairs with all 300 others"
+        );
     }
 }

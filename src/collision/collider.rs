@@ -1,7 +1,7 @@
 //! The `Collider` component: a parry3d shape attached at the body's origin.
 
 use bevy::prelude::*;
-use parry3d::shape::{SharedShape, ShapeType};
+use parry3d::shape::{ShapeType, SharedShape};
 
 /// The collision shape of a body, placed at the entity's `Transform` (bodies are top-level
 /// entities; scale is ignored). Mass and inertia come from its volume times
@@ -40,14 +40,20 @@ impl Collider {
     fn checked(shape: impl FnOnce() -> SharedShape, error: Option<String>) -> Self {
         match error {
             Some(error) => Self::invalid(error),
-            None => Collider { shape: shape(), error: None },
+            None => Collider {
+                shape: shape(),
+                error: None,
+            },
         }
     }
 
     /// A collider that carries `error`. Its placeholder shape keeps every collider a valid parry
     /// shape; it never collides, because a body whose collider has an error is quarantined.
     fn invalid(error: String) -> Self {
-        Collider { shape: SharedShape::ball(1.0), error: Some(error) }
+        Collider {
+            shape: SharedShape::ball(1.0),
+            error: Some(error),
+        }
     }
 
     /// A sphere of `radius` m centred at the body's origin.
@@ -135,5 +141,6 @@ impl Collider {
 }
 
 fn positive(what: &str, value: f32) -> Option<String> {
-    (!(value.is_finite() && value > 0.0)).then(|| format!("{what} must be finite and > 0, got {value}"))
+    (!(value.is_finite() && value > 0.0))
+        .then(|| format!("{what} must be finite and > 0, got {value}"))
 }

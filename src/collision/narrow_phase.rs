@@ -4,8 +4,7 @@
 use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::query::{
-    ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher,
-    PersistentQueryDispatcher,
+    ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher, PersistentQueryDispatcher,
 };
 use parry3d::shape::Shape;
 
@@ -36,7 +35,13 @@ pub struct ContactPair {
 
 impl ContactPair {
     fn new(a: Entity, b: Entity) -> Self {
-        ContactPair { a, b, manifolds: Vec::new(), workspace: None, touching: false }
+        ContactPair {
+            a,
+            b,
+            manifolds: Vec::new(),
+            workspace: None,
+            touching: false,
+        }
     }
 
     /// Recomputes the manifolds for the shapes at `pose_a` and `pose_b`, keeping contact points
@@ -72,22 +77,25 @@ impl ContactPair {
         pose_b: &Pose,
     ) -> impl Iterator<Item = (usize, usize, Vec3, Vec3, f32)> + '_ {
         let (pose_a, pose_b) = (*pose_a, *pose_b);
-        self.manifolds.iter().enumerate().flat_map(move |(m, manifold)| {
-            let frame_a = match manifold.subshape_pos1 {
-                Some(sub) => pose_a * sub,
-                None => pose_a,
-            };
-            let frame_b = match manifold.subshape_pos2 {
-                Some(sub) => pose_b * sub,
-                None => pose_b,
-            };
-            let normal = frame_a.rotation * manifold.local_n1;
-            manifold.points.iter().enumerate().map(move |(k, p)| {
-                let p1 = frame_a.transform_point(p.local_p1);
-                let p2 = frame_b.transform_point(p.local_p2);
-                (m, k, 0.5 * (p1 + p2), normal, p.dist)
+        self.manifolds
+            .iter()
+            .enumerate()
+            .flat_map(move |(m, manifold)| {
+                let frame_a = match manifold.subshape_pos1 {
+                    Some(sub) => pose_a * sub,
+                    None => pose_a,
+                };
+                let frame_b = match manifold.subshape_pos2 {
+                    Some(sub) => pose_b * sub,
+                    None => pose_b,
+                };
+                let normal = frame_a.rotation * manifold.local_n1;
+                manifold.points.iter().enumerate().map(move |(k, p)| {
+                    let p1 = frame_a.transform_point(p.local_p1);
+                    let p2 = frame_b.transform_point(p.local_p2);
+                    (m, k, 0.5 * (p1 + p2), normal, p.dist)
+                })
             })
-        })
     }
 }
 
@@ -109,7 +117,10 @@ impl ContactPairs {
     /// The pair of `a` and `b` (in either order), if the broad phase reported it.
     pub fn get(&self, a: Entity, b: Entity) -> Option<&ContactPair> {
         let key = (a.min(b), a.max(b));
-        self.pairs.binary_search_by(|p| (p.a, p.b).cmp(&key)).ok().map(|i| &self.pairs[i])
+        self.pairs
+            .binary_search_by(|p| (p.a, p.b).cmp(&key))
+            .ok()
+            .map(|i| &self.pairs[i])
     }
 
     /// Mutable access to all pairs, in order.
@@ -154,8 +165,14 @@ mod tests {
     fn ball_on_half_space() {
         let ground = HalfSpace::new(Vec3::Y);
         let ball = Ball::new(0.5);
-        let (pg, pb) = (Pose::identity(), Pose::from_parts(Vec3::new(1.0, 0.49, 0.0), Quat::IDENTITY));
-        let mut pair = ContactPair::new(Entity::from_raw_u32(1).unwrap(), Entity::from_raw_u32(2).unwrap());
+        let (pg, pb) = (
+            Pose::identity(),
+            Pose::from_parts(Vec3::new(1.0, 0.49, 0.0), Quat::IDENTITY),
+        );
+        let mut pair = ContactPair::new(
+            Entity::from_raw_u32(1).unwrap(),
+            Entity::from_raw_u32(2).unwrap(),
+        );
         assert!(pair.update(&pg, &ground, &pb, &ball, 0.02));
         let points: Vec<_> = pair.world_points(&pg, &pb).collect();
         assert_eq!(points.len(), 1);
@@ -171,10 +188,19 @@ mod tests {
     fn box_on_half_space_has_four_corners() {
         let ground = HalfSpace::new(Vec3::Y);
         let cuboid = Cuboid::new(Vec3::new(1.0, 0.25, 0.5));
-        let (pg, pb) = (Pose::identity(), Pose::from_parts(Vec3::new(0.0, 0.25, 0.0), Quat::IDENTITY));
-        let mut pair = ContactPair::new(Entity::from_raw_u32(1).unwrap(), Entity::from_raw_u32(2).unwrap());
+        let (pg, pb) = (
+            Pose::identity(),
+            Pose::from_parts(Vec3::new(0.0, 0.25, 0.0), Quat::IDENTITY),
+        );
+        let mut pair = ContactPair::new(
+            Entity::from_raw_u32(1).unwrap(),
+            Entity::from_raw_u32(2).unwrap(),
+        );
         assert!(pair.update(&pg, &ground, &pb, &cuboid, 0.02));
-        let mut xs: Vec<(f32, f32)> = pair.world_points(&pg, &pb).map(|(_, _, p, _, _)| (p.x, p.z)).collect();
+        let mut xs: Vec<(f32, f32)> = pair
+            .world_points(&pg, &pb)
+            .map(|(_, _, p, _, _)| (p.x, p.z))
+            .collect();
         xs.sort_by(|a, b| a.partial_cmp(b).unwrap());
         assert_eq!(xs, vec![(-1.0, -0.5), (-1.0, 0.5), (1.0, -0.5), (1.0, 0.5)]);
     }

@@ -135,7 +135,10 @@ mod tests {
         );
         let world = m.world_inverse_inertia(Quat::IDENTITY, BVec3::FALSE);
         let diag = Vec3::new(world.x_axis.x, world.y_axis.y, world.z_axis.z);
-        assert!((diag.recip() - expected).abs().max_element() <= 1e-5, "{diag}");
+        assert!(
+            (diag.recip() - expected).abs().max_element() <= 1e-5,
+            "{diag}"
+        );
         assert!(!m.isotropic);
     }
 
@@ -146,7 +149,10 @@ mod tests {
         let m = ComputedMass::from_collider(&Collider::cuboid(1.0, 0.25, 0.5), 1000.0, Some(1.0))
             .unwrap();
         let w0 = m.world_inverse_inertia(Quat::IDENTITY, BVec3::FALSE);
-        let w1 = m.world_inverse_inertia(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2), BVec3::FALSE);
+        let w1 = m.world_inverse_inertia(
+            Quat::from_rotation_z(std::f32::consts::FRAC_PI_2),
+            BVec3::FALSE,
+        );
         assert!((w1.x_axis.x - w0.y_axis.y).abs() <= 1e-4 * w0.y_axis.y);
         assert!((w1.y_axis.y - w0.x_axis.x).abs() <= 1e-4 * w0.x_axis.x);
         let locked = m.world_inverse_inertia(Quat::IDENTITY, BVec3::TRUE);

@@ -33,9 +33,37 @@ pub enum RigidBody {
 }
 
 impl RigidBody {
+    // These take `&self`: with `self` by value, a call on a `&RigidBody` (as from a query) would
+    // resolve to `PartialReflect::is_dynamic(&self)` instead, which answers another question.
+
     /// True for [`RigidBody::Dynamic`].
-    pub fn is_dynamic(self) -> bool {
-        self == RigidBody::Dynamic
+    pub fn is_dynamic(&self) -> bool {
+        *self == RigidBody::Dynamic
+    }
+
+    /// True for [`RigidBody::Static`].
+    pub fn is_static(&self) -> bool {
+        *self == RigidBody::Static
+    }
+
+    /// True for [`RigidBody::Kinematic`].
+    pub fn is_kinematic(&self) -> bool {
+        *self == RigidBody::Kinematic
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: called through a reference, as a query yields it, `is_dynamic` must be ours,
+    /// not `PartialReflect::is_dynamic` (which is false for every concrete type).
+    #[test]
+    fn is_dynamic_through_a_reference() {
+        let body = &RigidBody::Dynamic;
+        assert!(body.is_dynamic());
+        assert!(!body.is_static() && !body.is_kinematic());
+        assert!(RigidBody::Static.is_static());
     }
 }
 
@@ -91,11 +119,15 @@ pub struct LockedAxes {
 
 impl LockedAxes {
     /// All rotation locked: the body translates only.
-    pub const ROTATION_LOCKED: LockedAxes = LockedAxes { rotation: BVec3::TRUE };
+    pub const ROTATION_LOCKED: LockedAxes = LockedAxes {
+        rotation: BVec3::TRUE,
+    };
 
     /// Locks rotation about the world axes marked true.
     pub fn rotation(x: bool, y: bool, z: bool) -> Self {
-        LockedAxes { rotation: BVec3::new(x, y, z) }
+        LockedAxes {
+            rotation: BVec3::new(x, y, z),
+        }
     }
 }
 

@@ -99,7 +99,11 @@ impl SolverBody {
     /// Sets the velocities.
     pub fn with_velocity(mut self, linear: Vec3, angular: Vec3) -> Self {
         self.linear_velocity = linear;
-        self.angular_velocity = if self.motion == Motion::Static { Vec3::ZERO } else { angular };
+        self.angular_velocity = if self.motion == Motion::Static {
+            Vec3::ZERO
+        } else {
+            angular
+        };
         if self.motion == Motion::Static {
             self.linear_velocity = Vec3::ZERO;
         }
@@ -203,8 +207,12 @@ mod tests {
     #[test]
     fn free_fall_symplectic_and_ballistic() {
         for ballistic in [false, true] {
-            let mut body = SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY)
-                .with_mass(1.0, Mat3::IDENTITY, true, BVec3::FALSE);
+            let mut body = SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY).with_mass(
+                1.0,
+                Mat3::IDENTITY,
+                true,
+                BVec3::FALSE,
+            );
             body.ballistic = ballistic;
             let mut bodies = [body];
             let (g, h, n) = (Vec3::new(0.0, -10.0, 0.0), 0.01, 100);
@@ -213,8 +221,15 @@ mod tests {
                 integrate_positions(&mut bodies, g, h);
             }
             let steps = n as f32;
-            let y = if ballistic { -5.0 * (h * steps).powi(2) } else { -5.0 * h * h * steps * (steps + 1.0) };
-            assert!((bodies[0].position.y - y).abs() <= 1e-5 * y.abs(), "{ballistic}");
+            let y = if ballistic {
+                -5.0 * (h * steps).powi(2)
+            } else {
+                -5.0 * h * h * steps * (steps + 1.0)
+            };
+            assert!(
+                (bodies[0].position.y - y).abs() <= 1e-5 * y.abs(),
+                "{ballistic}"
+            );
             assert!((bodies[0].linear_velocity.y + 10.0).abs() <= 1e-5);
         }
     }

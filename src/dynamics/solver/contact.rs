@@ -109,6 +109,27 @@ impl ContactConstraint {
         }
     }
 
+    /// Derives the normal row from the anchors: `r x n`, `I^-1 (r x n)` for each body and the
+    /// effective mass `1/K`. A row whose angular terms vanish is marked non-angular.
+    pub fn prepare_normal_row(&mut self, a: &SolverBody, b: &SolverBody) {
+        self.rn_a = self.anchor_a.cross(self.normal);
+        self.rn_b = self.anchor_b.cross(self.normal);
+        self.ang_a = a.inverse_inertia * self.rn_a;
+        self.ang_b = b.inverse_inertia * self.rn_b;
+        let linear = a.inverse_mass + b.inverse_mass;
+        let angular = self.rn_a.dot(self.ang_a) + self.rn_b.dot(self.ang_b);
+        // Relative 1e-7 is f32 rounding of r x n for r parallel to n: treat it as exactly zero.
+        self.angular = angular > 1e-7 * linear.max(f32::MIN_POSITIVE);
+        if !self.angular {
+            self.rn_a = Vec3::ZERO;
+            self.rn_b = Vec3::ZERO;
+            self.ang_a = Vec3::ZERO;
+            self.ang_b = Vec3::ZERO;
+        }
+        let k = linear + if self.angular { angular } else { 0.0 };
+        self.normal_mass = if k > 0.0 { 1.0 / k } else { 0.0 };
+    }
+
     /// The normal part of the relative velocity at the contact, `v_rel . n`, using
     /// `(w x r) . n = w . (r x n)`.
     #[inline]
@@ -187,22 +208,8 @@ pub fn prepare_contacts(bodies: &[SolverBody], contacts: &mut [ContactConstraint
         let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
         c.anchor_a = c.point - a.position;
         c.anchor_b = c.point - b.position;
-        c.rn_a = c.anchor_a.cross(c.normal);
-        c.rn_b = c.anchor_b.cross(c.normal);
-        c.ang_a = a.inverse_inertia * c.rn_a;
-        c.ang_b = b.inverse_inertia * c.rn_b;
+        c.prepare_normal_row(a, b);
         let linear = a.inverse_mass + b.inverse_mass;
-        let angular = c.rn_a.dot(c.ang_a) + c.rn_b.dot(c.ang_b);
-        // Relative 1e-7 is f32 rounding of r x n for r parallel to n: treat it as exactly zero.
-        c.angular = angular > 1e-7 * linear.max(f32::MIN_POSITIVE);
-        if !c.angular {
-            c.rn_a = Vec3::ZERO;
-            c.rn_b = Vec3::ZERO;
-            c.ang_a = Vec3::ZERO;
-            c.ang_b = Vec3::ZERO;
-        }
-        let k = linear + if c.angular { angular } else { 0.0 };
-        c.normal_mass = if k > 0.0 { 1.0 / k } else { 0.0 };
         c.base_separation = c.separation - (c.anchor_b - c.anchor_a).dot(c.normal);
         c.approach_velocity = c.normal_velocity(bodies);
         c.max_normal_impulse = 0.0;
@@ -280,13 +287,21 @@ mod tests {
     fn prepared_mass_matches_impulse_formula() {
         let rot = Quat::from_rotation_y(0.7);
         let inv_local = Mat3::from_diagonal(Vec3::new(3.0, 1.0, 2.0));
-        let bodies = [
-            SolverBody::new(Motion::Dynamic, Vec3::ZERO, rot)
-                .with_mass(0.5, inv_local, false, BVec3::FALSE),
-            SolverBody::new(Motion::Dynamic, Vec3::new(1.0, 0.2, 0.0), Quat::IDENTITY)
-                .with_mass(0.25, inv_local, false, BVec3::FALSE),
-        ];
-        let (p, n) = (Vec3::new(0.5, 0.3, 0.2), Vec3::new(1.0, 0.1, 0.0).normalize());
+        let bodies =
+            [
+                SolverBody::new(Motion::Dynamic, Vec3::ZERO, rot).with_mass(
+                    0.5,
+                    inv_local,
+                    false,
+                    BVec3::FALSE,
+                ),
+                SolverBody::new(Motion::Dynamic, Vec3::new(1.0, 0.2, 0.0), Quat::IDENTITY)
+                    .with_mass(0.25, inv_local, false, BVec3::FALSE),
+            ];
+        let (p, n) = (
+            Vec3::new(0.5, 0.3, 0.2),
+            Vec3::new(1.0, 0.1, 0.0).normalize(),
+        );
         let mut contacts = [ContactConstraint::new(0, 1, p, n, 0.0, 0.0, 0.0)];
         prepare_contacts(&bodies, &mut contacts);
         let as_impulse = |b: &SolverBody| ImpulseBody {
@@ -306,12 +321,17 @@ mod tests {
     #[test]
     fn sphere_contacts_skip_angular_terms() {
         let inv = Mat3::from_diagonal(Vec3::splat(10.0));
-        let bodies = [
-            SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY)
-                .with_mass(1.0, inv, true, BVec3::FALSE),
-            SolverBody::new(Motion::Dynamic, Vec3::new(0.6, 0.8, 0.0), Quat::IDENTITY)
-                .with_mass(1.0, inv, true, BVec3::FALSE),
-        ];
+        let bodies =
+            [
+                SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY).with_mass(
+                    1.0,
+                    inv,
+                    true,
+                    BVec3::FALSE,
+                ),
+                SolverBody::new(Motion::Dynamic, Vec3::new(0.6, 0.8, 0.0), Quat::IDENTITY)
+                    .with_mass(1.0, inv, true, BVec3::FALSE),
+            ];
         let n = Vec3::new(0.6, 0.8, 0.0);
         let mut contacts = [ContactConstraint::new(0, 1, 0.5 * n, n, 0.0, 0.0, 0.0)];
         prepare_contacts(&bodies, &mut contacts);

@@ -86,7 +86,11 @@ pub fn jacobi_sweep(
         }
         let vn = c.normal_velocity(bodies);
         let target = rows.target(c, bodies);
-        let mass = if counts.is_empty() { c.normal_mass } else { split_mass(c, bodies, counts) };
+        let mass = if counts.is_empty() {
+            c.normal_mass
+        } else {
+            split_mass(c, bodies, counts)
+        };
         let new = (c.normal_impulse + mass * (target - vn)).max(0.0);
         deltas.push(new - c.normal_impulse);
         c.normal_impulse = new;
@@ -107,7 +111,10 @@ pub fn jacobi_sweep(
 
 /// Effective mass of a row with each body's share split `count` ways.
 fn split_mass(c: &ContactConstraint, bodies: &[SolverBody], counts: &[u32]) -> f32 {
-    let (na, nb) = (counts[c.body_a].max(1) as f32, counts[c.body_b].max(1) as f32);
+    let (na, nb) = (
+        counts[c.body_a].max(1) as f32,
+        counts[c.body_b].max(1) as f32,
+    );
     let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
     let mut k = na * a.inverse_mass + nb * b.inverse_mass;
     if c.angular {
@@ -140,13 +147,21 @@ impl Softness {
     /// See the type docs.
     pub fn new(hertz: f32, zeta: f32, h: f32) -> Self {
         if hertz <= 0.0 {
-            return Softness { bias_rate: 0.0, mass_scale: 1.0, impulse_scale: 0.0 };
+            return Softness {
+                bias_rate: 0.0,
+                mass_scale: 1.0,
+                impulse_scale: 0.0,
+            };
         }
         let omega = 2.0 * std::f32::consts::PI * hertz;
         let a1 = 2.0 * zeta + h * omega;
         let a2 = h * omega * a1;
         let a3 = 1.0 / (1.0 + a2);
-        Softness { bias_rate: omega / a1, mass_scale: a2 * a3, impulse_scale: a3 }
+        Softness {
+            bias_rate: omega / a1,
+            mass_scale: a2 * a3,
+            impulse_scale: a3,
+        }
     }
 }
 
@@ -181,13 +196,16 @@ pub fn soft_sweep(
         let (bias, mass_scale, impulse_scale) = if s > 0.0 {
             (s * inv_h, 1.0, 0.0)
         } else if let Some(soft) = soft {
-            ((soft.bias_rate * s).max(-max_push_out), soft.mass_scale, soft.impulse_scale)
+            (
+                (soft.bias_rate * s).max(-max_push_out),
+                soft.mass_scale,
+                soft.impulse_scale,
+            )
         } else {
             (0.0, 1.0, 0.0)
         };
         let vn = c.normal_velocity(bodies);
-        let impulse =
-            -c.normal_mass * mass_scale * (vn + bias) - impulse_scale * c.normal_impulse;
+        let impulse = -c.normal_mass * mass_scale * (vn + bias) - impulse_scale * c.normal_impulse;
         let new = (c.normal_impulse + impulse).max(0.0);
         let delta = new - c.normal_impulse;
         if delta != 0.0 {
@@ -206,7 +224,11 @@ pub fn soft_sweep(
 /// Box2D v3's restitution pass, after the substeps: a contact that approached faster than
 /// `threshold` at preparation and pushed during the step is driven to separate at `-e v_n`,
 /// with `v_n` the approach velocity recorded at preparation.
-pub fn apply_restitution(bodies: &mut [SolverBody], contacts: &mut [ContactConstraint], threshold: f32) {
+pub fn apply_restitution(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactConstraint],
+    threshold: f32,
+) {
     for c in contacts.iter_mut() {
         if c.restitution == 0.0
             || c.approach_velocity > -threshold

@@ -19,7 +19,9 @@ use bevy::prelude::*;
 
 pub use body::{Motion, SolverBody, integrate_positions, integrate_velocities};
 pub use contact::{ContactConstraint, prepare_contacts, warm_start};
-use iterative::{RigidRows, Softness, apply_restitution, jacobi_sweep, sequential_sweep, soft_sweep};
+use iterative::{
+    RigidRows, Softness, apply_restitution, jacobi_sweep, sequential_sweep, soft_sweep,
+};
 use propagation::{Propagation, propagate};
 
 /// The contact solver to use. Every method uses the same contact data; switch at run time by
@@ -161,7 +163,12 @@ impl SolverConfig {
             SolverMethod::Jacobi => (1, 20),
             SolverMethod::Propagation => (1, 1),
         };
-        SolverConfig { method, substeps, iterations, ..default() }
+        SolverConfig {
+            method,
+            substeps,
+            iterations,
+            ..default()
+        }
     }
 }
 
@@ -213,7 +220,10 @@ pub fn step(
     gravity: Vec3,
     dt: f32,
 ) -> SolverStats {
-    let mut stats = SolverStats { contacts: contacts.len() as u32, ..default() };
+    let mut stats = SolverStats {
+        contacts: contacts.len() as u32,
+        ..default()
+    };
     for body in bodies.iter_mut() {
         body.delta_position = Vec3::ZERO;
         body.delta_rotation = Quat::IDENTITY;
@@ -245,20 +255,28 @@ pub fn step(
     };
     match config.method {
         SolverMethod::Hybrid => {
-            let report =
-                propagate(bodies, contacts, manifolds, &propagation(config.restitution_threshold, gravity));
+            let report = propagate(
+                bodies,
+                contacts,
+                manifolds,
+                &propagation(config.restitution_threshold, gravity),
+            );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
-            soft_substeps(bodies, contacts, config, gravity, dt, false, &mut stats);
+            soft_substeps(bodies, contacts, Some(manifolds), config, gravity, dt, false, &mut stats);
         }
         SolverMethod::SoftStep => {
-            soft_substeps(bodies, contacts, config, gravity, dt, true, &mut stats);
+            soft_substeps(bodies, contacts, None, config, gravity, dt, true, &mut stats);
         }
         SolverMethod::Propagation => {
             integrate_velocities(bodies, gravity, dt);
             let singles: Vec<Range<usize>> = (0..contacts.len()).map(|i| i..i + 1).collect();
-            let report =
-                propagate(bodies, contacts, &singles, &propagation(config.velocity_tolerance, Vec3::ZERO));
+            let report = propagate(
+                bodies,
+                contacts,
+                &singles,
+                &propagation(config.velocity_tolerance, Vec3::ZERO),
+            );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
             for c in contacts.iter_mut() {
@@ -292,7 +310,11 @@ fn rigid_substeps(
         restitution_threshold: config.restitution_threshold,
     };
     let jacobi = config.method == SolverMethod::Jacobi;
-    let counts = if jacobi && config.mass_splitting { contact_counts(bodies.len(), contacts) } else { Vec::new() };
+    let counts = if jacobi && config.mass_splitting {
+        contact_counts(bodies.len(), contacts)
+    } else {
+        Vec::new()
+    };
     let mut deltas = Vec::new();
     for substep in 0..n {
         integrate_velocities(bodies, gravity, h);
@@ -329,6 +351,7 @@ fn rigid_substeps(
 fn soft_substeps(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
+    blocks: Option<&[Range<usize>]>,
     config: &SolverConfig,
     gravity: Vec3,
     dt: f32,
@@ -338,14 +361,24 @@ fn soft_substeps(
     let n = config.substeps.max(1);
     let h = dt / n as f32;
     let inv_h = 1.0 / h;
-    let soft = Softness::new(config.contact_hertz.min(0.25 * inv_h), config.contact_damping_ratio, h);
+    let soft = Softness::new(
+        config.contact_hertz.min(0.25 * inv_h),
+        config.contact_damping_ratio,
+        h,
+    );
     for substep in 0..n {
         integrate_velocities(bodies, gravity, h);
         warm_start(bodies, contacts);
         for _ in 0..config.iterations.max(1) {
             stats.iterations += 1;
-            if soft_sweep(bodies, contacts, Some(&soft), inv_h, config.max_push_out_speed, None)
-                <= config.velocity_tolerance
+            if proto_sweep(
+                bodies,
+                contacts, blocks, config.velocity_tolerance * PROTO_TOL,
+                Some(&soft),
+                inv_h,
+                config.max_push_out_speed,
+                None,
+            ) <= config.velocity_tolerance
             {
                 break;
             }
@@ -357,8 +390,14 @@ fn soft_substeps(
             (!restitution && substep + 1 == n).then_some(config.restitution_threshold);
         for _ in 0..config.relax_iterations {
             stats.iterations += 1;
-            if soft_sweep(bodies, contacts, None, inv_h, config.max_push_out_speed, leave_impacts)
-                <= config.velocity_tolerance
+            if proto_sweep(
+                bodies,
+                contacts, blocks, config.velocity_tolerance * PROTO_TOL,
+                None,
+                inv_h,
+                config.max_push_out_speed,
+                leave_impacts,
+            ) <= config.velocity_tolerance
             {
                 break;
             }
@@ -380,4 +419,20 @@ fn contact_counts(bodies: usize, contacts: &[ContactConstraint]) -> Vec<u32> {
         counts[c.body_b] += 1;
     }
     counts
+}
+
+const PROTO_TOL: f32 = 1.0;
+#[allow(clippy::too_many_arguments)]
+fn proto_sweep(bodies: &mut [SolverBody], contacts: &mut [ContactConstraint], blocks: Option<&[Range<usize>]>, tol: f32,
+    soft: Option<&Softness>, inv_h: f32, max_push_out: f32, leave: Option<f32>) -> f32 {
+    let Some(blocks) = blocks else { return soft_sweep(bodies, contacts, soft, inv_h, max_push_out, leave) };
+    let mut largest = 0.0f32;
+    for b in blocks {
+        for it in 0..64 {
+            let l = soft_sweep(bodies, &mut contacts[b.clone()], soft, inv_h, max_push_out, leave);
+            if it == 0 { largest = largest.max(l); }
+            if l <= tol { break; }
+        }
+    }
+    largest
 }

@@ -76,21 +76,27 @@ pub fn propagate(
 ) -> PropagationReport {
     let mut report = PropagationReport::default();
     let mut scratch: Vec<(f32, f32)> = Vec::new();
+    let mut rows: Vec<ContactConstraint> = Vec::new();
     loop {
         if report.sweeps == params.max_sweeps {
-            report.bound_hit = groups
-                .iter()
-                .any(|g| contacts[g.clone()].iter().any(|c| approaching(c, bodies, params)));
+            report.bound_hit = groups.iter().any(|g| {
+                contacts[g.clone()]
+                    .iter()
+                    .any(|c| approaching(c, bodies, params))
+            });
             break;
         }
         report.sweeps += 1;
         let mut resolved_any = false;
         for group in groups {
             let group_contacts = &mut contacts[group.clone()];
-            if !group_contacts.iter().any(|c| approaching(c, bodies, params)) {
+            if !group_contacts
+                .iter()
+                .any(|c| approaching(c, bodies, params))
+            {
                 continue;
             }
-            resolve_group(bodies, group_contacts, params, &mut scratch);
+            resolve_group(bodies, group_contacts, params, &mut scratch, &mut rows);
             resolved_any = true;
             report.resolutions += 1;
         }
@@ -118,7 +124,11 @@ fn approaching(c: &ContactConstraint, bodies: &[SolverBody], params: &Propagatio
 #[inline]
 fn closes_within(s: f32, vn: f32, gn: f32, params: &Propagation) -> bool {
     let dt = params.dt;
-    let discrete = if gn < 0.0 { 1.0 + 1.0 / params.substeps.max(1) as f32 } else { 1.0 };
+    let discrete = if gn < 0.0 {
+        1.0 + 1.0 / params.substeps.max(1) as f32
+    } else {
+        1.0
+    };
     s <= 0.0 || s + vn * dt + 0.5 * gn * dt * dt * discrete < 0.0
 }
 
@@ -144,7 +154,13 @@ fn relative_gravity(c: &ContactConstraint, bodies: &[SolverBody], gravity: Vec3)
     if gravity == Vec3::ZERO {
         return 0.0;
     }
-    let g = |i: usize| if bodies[i].motion == Motion::Dynamic { gravity } else { Vec3::ZERO };
+    let g = |i: usize| {
+        if bodies[i].motion == Motion::Dynamic {
+            gravity
+        } else {
+            Vec3::ZERO
+        }
+    };
     (g(c.body_b) - g(c.body_a)).dot(c.normal)
 }
 
@@ -153,6 +169,7 @@ fn resolve_group(
     group: &mut [ContactConstraint],
     params: &Propagation,
     scratch: &mut Vec<(f32, f32)>,
+    rows: &mut Vec<ContactConstraint>,
 ) {
     let (ia, ib) = (group[0].body_a, group[0].body_b);
     let (v_a, w_a, v_b, w_b) = (
@@ -170,7 +187,8 @@ fn resolve_group(
     scratch.clear();
     for c in group.iter() {
         let vn = c.normal_velocity(bodies);
-        let closing = c.normal_mass > 0.0 && vn < 0.0 && closes_within(c.separation, vn, gn, params);
+        let closing =
+            c.normal_mass > 0.0 && vn < 0.0 && closes_within(c.separation, vn, gn, params);
         // Points that are not closing within the step take no part (NaN marks them).
         scratch.push((if closing { vn } else { f32::NAN }, 0.0));
         if closing {
@@ -178,20 +196,43 @@ fn resolve_group(
         }
     }
     toi = toi.max(geometric.min(params.dt));
+
+    // Solve copies of the rows with their anchors where the contact is at the time of impact:
+    // each body's material point has moved by its velocity times t, and the two surface points
+    // meet at their mean. With anchors from the start of the step the equal and opposite
+    // impulses would act at two points `t (u_B - u_A)` apart, a spurious torque.
+    rows.clear();
+    rows.extend_from_slice(group);
+    if toi > 0.0 {
+        let (a, b) = (&bodies[ia], &bodies[ib]);
+        for row in rows.iter_mut() {
+            let u_a = a.linear_velocity + a.angular_velocity.cross(row.anchor_a);
+            let u_b = b.linear_velocity + b.angular_velocity.cross(row.anchor_b);
+            let meet = 0.5 * (u_a + u_b) * toi;
+            row.anchor_a += meet - a.linear_velocity * toi;
+            row.anchor_b += meet - b.linear_velocity * toi;
+            row.prepare_normal_row(a, b);
+        }
+    }
     // Restitution targets, before gravity: -e v_n - (1 + e) g_n t (see `propagate`).
-    for (c, (target, _)) in group.iter().zip(scratch.iter_mut()) {
+    for (row, (target, _)) in rows.iter().zip(scratch.iter_mut()) {
         if !target.is_nan() {
-            *target = -c.restitution * *target - (1.0 + c.restitution) * gn * toi;
+            let vn = row.normal_velocity(bodies);
+            *target = -row.restitution * vn - (1.0 + row.restitution) * gn * toi;
         }
     }
 
     // Accumulated impulses of this resolution, clamped >= 0: Gauss-Seidel on the small block,
     // where a single point converges in one pass.
     let single = scratch.iter().filter(|(t, _)| !t.is_nan()).count() == 1;
-    let iterations = if single { 1 } else { params.max_block_iterations.max(1) };
+    let iterations = if single {
+        1
+    } else {
+        params.max_block_iterations.max(1)
+    };
     for _ in 0..iterations {
         let mut largest_change = 0.0f32;
-        for (c, (target, accumulated)) in group.iter().zip(scratch.iter_mut()) {
+        for (c, (target, accumulated)) in rows.iter().zip(scratch.iter_mut()) {
             if target.is_nan() {
                 continue;
             }
@@ -238,7 +279,12 @@ mod tests {
 
     fn ball(x: f32, v: f32) -> SolverBody {
         SolverBody::new(Motion::Dynamic, Vec3::new(x, 0.0, 0.0), Quat::IDENTITY)
-            .with_mass(1.0, Mat3::from_diagonal(Vec3::splat(10.0)), true, BVec3::FALSE)
+            .with_mass(
+                1.0,
+                Mat3::from_diagonal(Vec3::splat(10.0)),
+                true,
+                BVec3::FALSE,
+            )
             .with_velocity(Vec3::new(v, 0.0, 0.0), Vec3::ZERO)
     }
 
@@ -259,9 +305,21 @@ mod tests {
     #[test]
     fn cradle_in_either_order() {
         for reversed in [false, true] {
-            let mut bodies: Vec<_> = (0..5).map(|i| ball(i as f32, if i == 0 { 1.0 } else { 0.0 })).collect();
+            let mut bodies: Vec<_> = (0..5)
+                .map(|i| ball(i as f32, if i == 0 { 1.0 } else { 0.0 }))
+                .collect();
             let mut contacts: Vec<_> = (0..4)
-                .map(|i| ContactConstraint::new(i, i + 1, Vec3::new(i as f32 + 0.5, 0.0, 0.0), Vec3::X, 0.0, 1.0, 0.0))
+                .map(|i| {
+                    ContactConstraint::new(
+                        i,
+                        i + 1,
+                        Vec3::new(i as f32 + 0.5, 0.0, 0.0),
+                        Vec3::X,
+                        0.0,
+                        1.0,
+                        0.0,
+                    )
+                })
                 .collect();
             if reversed {
                 contacts.reverse();
@@ -271,7 +329,11 @@ mod tests {
             let report = propagate(&mut bodies, &mut contacts, &groups, &params());
             for (i, b) in bodies.iter().enumerate() {
                 let expected = if i == 4 { 1.0 } else { 0.0 };
-                assert!((b.linear_velocity.x - expected).abs() <= 1e-6, "ball {i}: {}", b.linear_velocity.x);
+                assert!(
+                    (b.linear_velocity.x - expected).abs() <= 1e-6,
+                    "ball {i}: {}",
+                    b.linear_velocity.x
+                );
             }
             assert!(!report.bound_hit);
         }
@@ -286,12 +348,24 @@ mod tests {
             SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
             ball(0.55, -6.0),
         ];
-        let mut contacts = vec![ContactConstraint::new(0, 1, Vec3::new(0.025, 0.0, 0.0), Vec3::X, 0.05, 1.0, 0.0)];
+        let mut contacts = vec![ContactConstraint::new(
+            0,
+            1,
+            Vec3::new(0.025, 0.0, 0.0),
+            Vec3::X,
+            0.05,
+            1.0,
+            0.0,
+        )];
         prepare_contacts(&bodies, &mut contacts);
         propagate(&mut bodies, &mut contacts, &[0..1], &params());
         crate::dynamics::solver::body::integrate_positions(&mut bodies, Vec3::ZERO, 1.0 / 60.0);
         assert!((bodies[1].linear_velocity.x - 6.0).abs() <= 1e-5);
         // Exact: 0.05 m to the wall at 6 m/s, then 1/120 s back out at 6 m/s: x = 0.55.
-        assert!((bodies[1].position.x - 0.55).abs() <= 1e-5, "{}", bodies[1].position.x);
+        assert!(
+            (bodies[1].position.x - 0.55).abs() <= 1e-5,
+            "{}",
+            bodies[1].position.x
+        );
     }
 }

@@ -1,0 +1,80 @@
+//! Shared helpers for the whole-app tests: component getters and a per-thread log capture.
+#![allow(dead_code)]
+
+use std::cell::RefCell;
+
+use bevy::prelude::*;
+use impact3d::prelude::*;
+
+/// Translation of `entity`.
+pub fn position(app: &App, entity: Entity) -> Vec3 {
+    app.world().get::<Transform>(entity).unwrap().translation
+}
+
+/// Rotation of `entity`.
+pub fn rotation(app: &App, entity: Entity) -> Quat {
+    app.world().get::<Transform>(entity).unwrap().rotation
+}
+
+/// Linear velocity of `entity`.
+pub fn velocity(app: &App, entity: Entity) -> Vec3 {
+    app.world().get::<LinearVelocity>(entity).unwrap().0
+}
+
+/// Angular velocity of `entity`.
+pub fn spin(app: &App, entity: Entity) -> Vec3 {
+    app.world().get::<AngularVelocity>(entity).unwrap().0
+}
+
+/// Mass of a dynamic `entity`, kg.
+pub fn mass(app: &App, entity: Entity) -> f32 {
+    1.0 / app
+        .world()
+        .get::<ComputedMass>(entity)
+        .unwrap()
+        .inverse_mass
+}
+
+/// Drains the messages of type `M` written since the last call (the app's reader cursor is
+/// kept in a local `MessageCursor`).
+pub fn drain<M: Message + Clone>(
+    app: &mut App,
+    cursor: &mut bevy::ecs::message::MessageCursor<M>,
+) -> Vec<M> {
+    let messages = app.world().resource::<Messages<M>>();
+    cursor.read(messages).cloned().collect()
+}
+
+thread_local! {
+    static LOGS: RefCell<Vec<(log::Level, String)>> = const { RefCell::new(Vec::new()) };
+}
+
+struct Capture;
+
+impl log::Log for Capture {
+    fn enabled(&self, _: &log::Metadata) -> bool {
+        true
+    }
+    fn log(&self, record: &log::Record) {
+        LOGS.with(|logs| {
+            logs.borrow_mut()
+                .push((record.level(), record.args().to_string()))
+        });
+    }
+    fn flush(&self) {}
+}
+
+static CAPTURE: Capture = Capture;
+
+/// Captures `log` records on the calling thread (the app runs its schedules on the test's own
+/// thread, so each test sees only its own records).
+pub fn capture_logs() {
+    let _ = log::set_logger(&CAPTURE);
+    log::set_max_level(log::LevelFilter::Info);
+    LOGS.with(|logs| logs.borrow_mut().clear());
+}
+
+/// The records captured on this thread so far, drained.
+pub fn take_logs() -> Vec<(log::Level, String)> {
+    LOGS.with(|logs| std::mem::take(&mut *logs.borrow_mut()))
+}
