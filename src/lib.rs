@@ -22,7 +22,7 @@ pub mod prelude {
     pub use crate::collision::Collider;
     pub use crate::dynamics::{
         AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
-        LockedAxes, Mass, Quarantined, Restitution, RigidBody, SolverConfig, SolverMethod,
+        LockedAxes, Mass, Quarantined, Restitution, RigidBody, SleepConfig, Sleeping, SolverConfig, SolverMethod,
         SolverStats,
     };
     pub use crate::messages::{CollisionEnded, CollisionStarted, Impact};

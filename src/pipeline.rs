@@ -5,6 +5,7 @@
 use std::ops::Range;
 
 use bevy::ecs::query::QueryData;
+use bevy::ecs::system::SystemChangeTick;
 use bevy::prelude::*;
 use parry3d::bounding_volume::BoundingVolume;
 use parry3d::math::Pose;
@@ -13,6 +14,7 @@ use parry3d::shape::SharedShape;
 use crate::collision::broad_phase::sweep_and_prune;
 use crate::collision::narrow_phase::{ContactImpulse, TOUCH_DISTANCE};
 use crate::collision::{Collider, ContactPairs};
+use crate::dynamics::sleep::{SleepConfig, SleepTimer, Sleeping, islands_to_sleep};
 use crate::dynamics::solver::{self, ContactConstraint, Motion, SolverBody};
 use crate::dynamics::{
     AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
@@ -44,6 +46,9 @@ pub struct PhysicsState {
     /// Broad-phase pairs as entities `(a, b)`, `a < b`, sorted, with their body indices.
     candidates: Vec<(Entity, Entity)>,
     candidate_indices: Vec<(usize, usize)>,
+    /// Per candidate: neither body is awake and dynamic (a sleeping body with a sleeping or
+    /// static one), so the pair keeps its manifolds and touching state without a narrow phase.
+    dormant: Vec<bool>,
     contacts: Vec<ContactConstraint>,
     /// Contact index ranges of one body pair each.
     pair_ranges: Vec<Range<usize>>,
@@ -52,6 +57,16 @@ pub struct PhysicsState {
     impacts: Vec<Impact>,
     started: Vec<(Entity, Entity)>,
     ended: Vec<(Entity, Entity)>,
+    /// Bounding radius of each body about its centre of mass, m.
+    radius: Vec<f32>,
+    /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
+    /// solver body it becomes if it is woken in this step.
+    asleep: Vec<Option<(Entity, SolverBody)>>,
+    /// Islands woken in this step; their `Sleeping` markers are removed.
+    woken: Vec<Entity>,
+    /// Bodies of pairs that disappeared in this step (a neighbour despawned, was quarantined
+    /// or moved away): a sleeping one wakes its island.
+    lost: Vec<Entity>,
     /// Steps since the propagation bound warning was last logged.
     steps_since_bound_warning: u32,
 }
@@ -63,9 +78,9 @@ pub struct BodyData {
     entity: Entity,
     collider: Ref<'static, Collider>,
     body: Option<Ref<'static, RigidBody>>,
-    transform: &'static Transform,
-    linear_velocity: Option<&'static LinearVelocity>,
-    angular_velocity: Option<&'static AngularVelocity>,
+    transform: Ref<'static, Transform>,
+    linear_velocity: Option<Ref<'static, LinearVelocity>>,
+    angular_velocity: Option<Ref<'static, AngularVelocity>>,
     restitution: Option<Ref<'static, Restitution>>,
     friction: Option<Ref<'static, Friction>>,
     mass: Option<Ref<'static, Mass>>,
@@ -73,6 +88,7 @@ pub struct BodyData {
     computed: Option<&'static mut ComputedMass>,
     locked: Option<&'static LockedAxes>,
     quarantined: Option<&'static Quarantined>,
+    sleeping: Option<Ref<'static, Sleeping>>,
 }
 
 /// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
@@ -80,8 +96,10 @@ pub struct BodyData {
 /// static.
 pub fn prepare_bodies(
     mut commands: Commands,
+    ticks: SystemChangeTick,
     time: Res<Time>,
     config: Res<SolverConfig>,
+    sleep: Res<SleepConfig>,
     mut state: ResMut<PhysicsState>,
     mut query: Query<BodyData>,
 ) {
@@ -97,6 +115,9 @@ pub fn prepare_bodies(
     state.friction.clear();
     state.reach.clear();
     state.aabbs.clear();
+    state.radius.clear();
+    state.asleep.clear();
+    state.woken.clear();
 
     for mut item in query.iter_mut() {
         let entity = item.entity;
@@ -134,8 +155,8 @@ pub fn prepare_bodies(
         } else {
             Vec3::ZERO
         };
-        let linear = item.linear_velocity.map_or(Vec3::ZERO, |v| v.0);
-        let angular = item.angular_velocity.map_or(Vec3::ZERO, |w| w.0);
+        let linear = item.linear_velocity.as_deref().map_or(Vec3::ZERO, |v| v.0);
+        let angular = item.angular_velocity.as_deref().map_or(Vec3::ZERO, |w| w.0);
         let body = SolverBody::new(motion, translation + rotation * local_com, rotation)
             .with_mass(
                 computed.inverse_mass,
@@ -147,16 +168,36 @@ pub fn prepare_bodies(
 
         let shape = item.collider.shape().clone();
         let pose = Pose::from_parts(translation, rotation);
-        let reach = if config.speculative_contacts && motion != Motion::Static {
-            let radius = if item.collider.is_unbounded_or_hollow() && motion != Motion::Kinematic {
-                0.0
-            } else {
-                let local = shape.compute_local_aabb();
-                (local.mins - local_com)
-                    .abs()
-                    .max((local.maxs - local_com).abs())
-                    .length()
-            };
+        let radius = if item.collider.is_unbounded_or_hollow() {
+            0.0
+        } else {
+            let local = shape.compute_local_aabb();
+            (local.mins - local_com).abs().max((local.maxs - local_com).abs()).length()
+        };
+        // A sleeping body enters the step as static; it is swapped back in if woken.
+        let asleep = match (&item.sleeping, kind) {
+            (Some(marker), RigidBody::Dynamic) if sleep.enabled => {
+                let since = marker.added();
+                let now = ticks.this_run();
+                let touched = item.transform.last_changed().is_newer_than(since, now)
+                    || item.linear_velocity.as_ref().is_some_and(|v| v.last_changed().is_newer_than(since, now))
+                    || item.angular_velocity.as_ref().is_some_and(|w| w.last_changed().is_newer_than(since, now));
+                let island = if marker.island == Entity::PLACEHOLDER { entity } else { marker.island };
+                if touched {
+                    state.woken.push(island);
+                }
+                Some(island)
+            }
+            _ => None,
+        };
+        let (body, asleep) = match asleep {
+            Some(island) => (
+                SolverBody::new(Motion::Static, body.position, body.rotation),
+                Some((island, body)),
+            ),
+            None => (body, None),
+        };
+        let reach = if config.speculative_contacts && body.motion != Motion::Static {
             (body.linear_velocity.length() + body.angular_velocity.length() * radius) * dt
         } else {
             0.0
@@ -180,7 +221,35 @@ pub fn prepare_bodies(
         ));
         state.reach.push(reach);
         state.aabbs.push(aabb);
+        state.radius.push(radius);
+        state.asleep.push(asleep);
     }
+    if !sleep.enabled {
+        return;
+    }
+    // Islands the user touched wake whole.
+    let woken = std::mem::take(&mut state.woken);
+    wake_islands(state, &woken);
+}
+
+/// Swaps the bodies of the given islands back in as dynamic bodies and records the islands as
+/// woken (their `Sleeping` markers are removed at the end of the step). Returns whether any
+/// body woke.
+fn wake_islands(state: &mut PhysicsState, islands: &[Entity]) -> bool {
+    let mut any = false;
+    for i in 0..state.bodies.len() {
+        if let Some((island, body)) = state.asleep[i] {
+            if islands.contains(&island) {
+                state.bodies[i] = body;
+                state.asleep[i] = None;
+                any = true;
+                if !state.woken.contains(&island) {
+                    state.woken.push(island);
+                }
+            }
+        }
+    }
+    any
 }
 
 /// Checks one body's input and refreshes its mass properties when their inputs changed.
@@ -188,7 +257,7 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
     if let Some(error) = item.collider.error() {
         return Err(format!("invalid collider: {error}"));
     }
-    let t = item.transform;
+    let t = &*item.transform;
     if !t.translation.is_finite() {
         return Err(format!("non-finite translation {}", t.translation));
     }
@@ -196,10 +265,10 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
         return Err(format!("invalid rotation {}", t.rotation));
     }
     if kind != RigidBody::Static {
-        if let Some(v) = item.linear_velocity.filter(|v| !v.is_finite()) {
+        if let Some(v) = item.linear_velocity.as_deref().filter(|v| !v.is_finite()) {
             return Err(format!("non-finite linear velocity {}", v.0));
         }
-        if let Some(w) = item.angular_velocity.filter(|w| !w.is_finite()) {
+        if let Some(w) = item.angular_velocity.as_deref().filter(|w| !w.is_finite()) {
             return Err(format!("non-finite angular velocity {}", w.0));
         }
     }
@@ -268,12 +337,36 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
         &mut state.index_pairs,
         &mut state.sort_scratch,
     );
+    // An awake body (dynamic, or kinematic and moving) overlapping a sleeping one wakes its
+    // island now, so that the contact is solved with the sleeper's real mass; repeat until no
+    // more islands wake (a woken island may overlap another sleeping one).
+    loop {
+        let mut islands = Vec::new();
+        for &(i, j) in &state.index_pairs {
+            for (me, other) in [(i as usize, j as usize), (j as usize, i as usize)] {
+                if let Some((island, _)) = state.asleep[me] {
+                    let o = &state.bodies[other];
+                    let active = o.motion == Motion::Dynamic
+                        || (o.motion == Motion::Kinematic
+                            && (o.linear_velocity != Vec3::ZERO || o.angular_velocity != Vec3::ZERO));
+                    if active && state.asleep[other].is_none() && !islands.contains(&island) {
+                        islands.push(island);
+                    }
+                }
+            }
+        }
+        if islands.is_empty() || !wake_islands(state, &islands) {
+            break;
+        }
+    }
     let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
         .index_pairs
         .iter()
         .map(|&(i, j)| (i as usize, j as usize))
         .filter(|&(i, j)| {
-            state.bodies[i].motion == Motion::Dynamic || state.bodies[j].motion == Motion::Dynamic
+            // Pairs with a sleeping body are kept (dormant), so sleep does not end collisions.
+            let live = |k: usize| state.bodies[k].motion == Motion::Dynamic || state.asleep[k].is_some();
+            live(i) || live(j)
         })
         .map(|(i, j)| {
             let (ei, ej) = (state.entities[i], state.entities[j]);
@@ -287,9 +380,12 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
     keyed.sort_unstable_by_key(|(k, _)| *k);
     state.candidates.clear();
     state.candidate_indices.clear();
-    for (k, idx) in keyed {
+    state.dormant.clear();
+    for (k, (i, j)) in keyed {
         state.candidates.push(k);
-        state.candidate_indices.push(idx);
+        state.candidate_indices.push((i, j));
+        let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
+        state.dormant.push(!awake(i) && !awake(j));
     }
 }
 
@@ -303,10 +399,12 @@ pub fn update_narrow_phase(
     let state = &mut *state;
     state.ended.clear();
     state.started.clear();
-    let ended = &mut state.ended;
+    state.lost.clear();
+    let (ended, lost) = (&mut state.ended, &mut state.lost);
     pairs.retain_candidates(&state.candidates, |p| {
         if p.touching {
             ended.push((p.a, p.b));
+            lost.extend([p.a, p.b]);
         }
     });
     state.contacts.clear();
@@ -318,6 +416,9 @@ pub fn update_narrow_phase(
         .zip(&state.candidate_indices)
         .enumerate()
     {
+        if state.dormant[pair_index] {
+            continue;
+        }
         let prediction = config.contact_margin + state.reach[ia] + state.reach[ib];
         let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
         if !pair.update(
@@ -380,7 +481,12 @@ pub fn solve_contacts(
     }
 
     let pairs = pairs.pairs_mut();
-    let mut touching = vec![false; pairs.len()];
+    // Dormant pairs keep their touching state; the others are re-evaluated from this step.
+    let mut touching: Vec<bool> = pairs
+        .iter()
+        .zip(&state.dormant)
+        .map(|(pair, &dormant)| dormant && pair.touching)
+        .collect();
     state.impacts.clear();
     for (c, &(p, m, k)) in state.contacts.iter().zip(&state.contact_keys) {
         let pair = &mut pairs[p as usize];
@@ -479,4 +585,90 @@ pub fn send_messages(
     impacts.write_batch(state.impacts.iter().copied());
     started.write_batch(state.started.iter().map(|&(a, b)| CollisionStarted(a, b)));
     ended.write_batch(state.ended.iter().map(|&(a, b)| CollisionEnded(a, b)));
+}
+
+/// Puts resting islands to sleep and wakes the islands woken in this step (see
+/// [`crate::dynamics::sleep`]): updates each awake dynamic body's [`SleepTimer`], groups
+/// touching bodies into islands, and marks every body of an island whose bodies have all been
+/// slow for the configured time, zeroing its velocities.
+pub fn update_sleep(
+    mut commands: Commands,
+    config: Res<SleepConfig>,
+    state: Res<PhysicsState>,
+    pairs: Res<ContactPairs>,
+    mut bodies: Query<(
+        Option<&mut SleepTimer>,
+        Option<&mut LinearVelocity>,
+        Option<&mut AngularVelocity>,
+    )>,
+    sleepers: Query<(Entity, &Sleeping)>,
+) {
+    if !config.enabled {
+        for (entity, _) in &sleepers {
+            commands.entity(entity).remove::<Sleeping>();
+        }
+        return;
+    }
+    let island_of = |entity: Entity, marker: &Sleeping| {
+        if marker.island == Entity::PLACEHOLDER { entity } else { marker.island }
+    };
+    let mut woken = state.woken.clone();
+    for (entity, marker) in &sleepers {
+        if state.lost.contains(&entity) {
+            woken.push(island_of(entity, marker));
+        }
+    }
+    for (entity, marker) in &sleepers {
+        if woken.contains(&island_of(entity, marker)) {
+            commands.entity(entity).remove::<Sleeping>();
+        }
+    }
+    if state.dt <= 0.0 {
+        return;
+    }
+    let n = state.bodies.len();
+    let mut timers: Vec<Option<f32>> = vec![None; n];
+    for i in 0..n {
+        let body = &state.bodies[i];
+        if body.motion != Motion::Dynamic {
+            continue;
+        }
+        let Ok((Some(mut timer), _, _)) = bodies.get_mut(state.entities[i]) else {
+            continue;
+        };
+        let speed =
+            body.linear_velocity.length() + body.angular_velocity.length() * state.radius[i];
+        timer.0 = if speed < config.linear_threshold { timer.0 + state.dt } else { 0.0 };
+        timers[i] = Some(timer.0);
+    }
+    // Islands: touching pairs of dynamic bodies; a body touching a moving kinematic body stays
+    // awake (its island gets a member that never sleeps).
+    let moving = |i: usize| {
+        let b = &state.bodies[i];
+        b.motion == Motion::Kinematic
+            && (b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO)
+    };
+    let mut links = Vec::new();
+    for (pair, &(ia, ib)) in pairs.iter().zip(&state.candidate_indices) {
+        let (da, db) = (
+            state.bodies[ia].motion == Motion::Dynamic,
+            state.bodies[ib].motion == Motion::Dynamic,
+        );
+        if pair.touching && ((da && (db || moving(ib))) || (db && moving(ia))) {
+            links.push((ia as u32, ib as u32));
+        }
+    }
+    for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep).into_iter().enumerate() {
+        let Some(root) = island else { continue };
+        let entity = state.entities[i];
+        if let Ok((_, linear, angular)) = bodies.get_mut(entity) {
+            if let Some(mut v) = linear {
+                v.0 = Vec3::ZERO;
+            }
+            if let Some(mut w) = angular {
+                w.0 = Vec3::ZERO;
+            }
+        }
+        commands.entity(entity).insert(Sleeping { island: state.entities[root as usize] });
+    }
 }

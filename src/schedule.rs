@@ -9,6 +9,7 @@
 //! | [`PhysicsSystems::NarrowPhase`] | parry3d contact manifolds per pair, persistent so impulses carry over; contact constraints |
 //! | [`PhysicsSystems::Solve`] | gravity, impacts and resting contact by the chosen [`SolverMethod`](crate::dynamics::SolverMethod), position integration |
 //! | [`PhysicsSystems::WriteBack`] | `Transform`, `LinearVelocity`, `AngularVelocity` |
+//! | [`PhysicsSystems::Sleep`] | resting islands fall asleep; woken ones lose their marker |
 //! | [`PhysicsSystems::Messages`] | `Impact`, `CollisionStarted`, `CollisionEnded` |
 
 use bevy::ecs::intern::Interned;
@@ -35,6 +36,8 @@ pub enum PhysicsSystems {
     Solve,
     /// Results back to components.
     WriteBack,
+    /// Sleeping islands.
+    Sleep,
     /// Messages.
     Messages,
 }
@@ -56,6 +59,7 @@ impl Plugin for PhysicsSchedulePlugin {
                 PhysicsSystems::NarrowPhase,
                 PhysicsSystems::Solve,
                 PhysicsSystems::WriteBack,
+                PhysicsSystems::Sleep,
                 PhysicsSystems::Messages,
             )
                 .chain(),

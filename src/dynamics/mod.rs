@@ -2,6 +2,7 @@
 
 pub mod mass;
 pub mod rigid_body;
+pub mod sleep;
 pub mod solver;
 
 pub use mass::ComputedMass;
@@ -9,6 +10,7 @@ pub use rigid_body::{
     AngularVelocity, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass, Quarantined,
     Restitution, RigidBody,
 };
+pub use sleep::{SleepConfig, SleepTimer, Sleeping};
 pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
 
 use bevy::prelude::*;
@@ -26,6 +28,10 @@ impl Plugin for DynamicsPlugin {
         app.init_resource::<Gravity>()
             .init_resource::<SolverConfig>()
             .init_resource::<SolverStats>()
+            .init_resource::<SleepConfig>()
+            .register_type::<Sleeping>()
+            .register_type::<SleepTimer>()
+            .register_type::<SleepConfig>()
             .add_message::<Impact>()
             .register_type::<RigidBody>()
             .register_type::<LinearVelocity>()
@@ -44,6 +50,7 @@ impl Plugin for DynamicsPlugin {
                     pipeline::prepare_bodies.in_set(PhysicsSystems::Prepare),
                     pipeline::solve_contacts.in_set(PhysicsSystems::Solve),
                     pipeline::write_back.in_set(PhysicsSystems::WriteBack),
+                    pipeline::update_sleep.in_set(PhysicsSystems::Sleep),
                 ),
             );
     }

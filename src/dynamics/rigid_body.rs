@@ -3,6 +3,7 @@
 use bevy::prelude::*;
 
 use super::mass::ComputedMass;
+use super::sleep::SleepTimer;
 
 /// How a body moves. Spawning `RigidBody` + [`Collider`](crate::collision::Collider) (+ the
 /// `Transform` Bevy adds) is enough; the other body components are required with their defaults.
@@ -20,7 +21,8 @@ use super::mass::ComputedMass;
     Restitution,
     Friction,
     Density,
-    ComputedMass
+    ComputedMass,
+    SleepTimer
 )]
 pub enum RigidBody {
     /// Moved by gravity and contacts.
