@@ -172,7 +172,10 @@ pub fn prepare_bodies(
             0.0
         } else {
             let local = shape.compute_local_aabb();
-            (local.mins - local_com).abs().max((local.maxs - local_com).abs()).length()
+            (local.mins - local_com)
+                .abs()
+                .max((local.maxs - local_com).abs())
+                .length()
         };
         // A sleeping body enters the step as static; it is swapped back in if woken.
         let asleep = match (&item.sleeping, kind) {
@@ -180,9 +183,19 @@ pub fn prepare_bodies(
                 let since = marker.added();
                 let now = ticks.this_run();
                 let touched = item.transform.last_changed().is_newer_than(since, now)
-                    || item.linear_velocity.as_ref().is_some_and(|v| v.last_changed().is_newer_than(since, now))
-                    || item.angular_velocity.as_ref().is_some_and(|w| w.last_changed().is_newer_than(since, now));
-                let island = if marker.island == Entity::PLACEHOLDER { entity } else { marker.island };
+                    || item
+                        .linear_velocity
+                        .as_ref()
+                        .is_some_and(|v| v.last_changed().is_newer_than(since, now))
+                    || item
+                        .angular_velocity
+                        .as_ref()
+                        .is_some_and(|w| w.last_changed().is_newer_than(since, now));
+                let island = if marker.island == Entity::PLACEHOLDER {
+                    entity
+                } else {
+                    marker.island
+                };
                 if touched {
                     state.woken.push(island);
                 }
@@ -238,14 +251,14 @@ pub fn prepare_bodies(
 fn wake_islands(state: &mut PhysicsState, islands: &[Entity]) -> bool {
     let mut any = false;
     for i in 0..state.bodies.len() {
-        if let Some((island, body)) = state.asleep[i] {
-            if islands.contains(&island) {
-                state.bodies[i] = body;
-                state.asleep[i] = None;
-                any = true;
-                if !state.woken.contains(&island) {
-                    state.woken.push(island);
-                }
+        if let Some((island, body)) = state.asleep[i]
+            && islands.contains(&island)
+        {
+            state.bodies[i] = body;
+            state.asleep[i] = None;
+            any = true;
+            if !state.woken.contains(&island) {
+                state.woken.push(island);
             }
         }
     }
@@ -348,7 +361,8 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
                     let o = &state.bodies[other];
                     let active = o.motion == Motion::Dynamic
                         || (o.motion == Motion::Kinematic
-                            && (o.linear_velocity != Vec3::ZERO || o.angular_velocity != Vec3::ZERO));
+                            && (o.linear_velocity != Vec3::ZERO
+                                || o.angular_velocity != Vec3::ZERO));
                     if active && state.asleep[other].is_none() && !islands.contains(&island) {
                         islands.push(island);
                     }
@@ -365,7 +379,8 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
         .map(|&(i, j)| (i as usize, j as usize))
         .filter(|&(i, j)| {
             // Pairs with a sleeping body are kept (dormant), so sleep does not end collisions.
-            let live = |k: usize| state.bodies[k].motion == Motion::Dynamic || state.asleep[k].is_some();
+            let live =
+                |k: usize| state.bodies[k].motion == Motion::Dynamic || state.asleep[k].is_some();
             live(i) || live(j)
         })
         .map(|(i, j)| {
@@ -610,7 +625,11 @@ pub fn update_sleep(
         return;
     }
     let island_of = |entity: Entity, marker: &Sleeping| {
-        if marker.island == Entity::PLACEHOLDER { entity } else { marker.island }
+        if marker.island == Entity::PLACEHOLDER {
+            entity
+        } else {
+            marker.island
+        }
     };
     let mut woken = state.woken.clone();
     for (entity, marker) in &sleepers {
@@ -626,10 +645,8 @@ pub fn update_sleep(
     if state.dt <= 0.0 {
         return;
     }
-    let n = state.bodies.len();
-    let mut timers: Vec<Option<f32>> = vec![None; n];
-    for i in 0..n {
-        let body = &state.bodies[i];
+    let mut timers: Vec<Option<f32>> = vec![None; state.bodies.len()];
+    for (i, (body, slot)) in state.bodies.iter().zip(timers.iter_mut()).enumerate() {
         if body.motion != Motion::Dynamic {
             continue;
         }
@@ -638,8 +655,12 @@ pub fn update_sleep(
         };
         let speed =
             body.linear_velocity.length() + body.angular_velocity.length() * state.radius[i];
-        timer.0 = if speed < config.linear_threshold { timer.0 + state.dt } else { 0.0 };
-        timers[i] = Some(timer.0);
+        timer.0 = if speed < config.linear_threshold {
+            timer.0 + state.dt
+        } else {
+            0.0
+        };
+        *slot = Some(timer.0);
     }
     // Islands: touching pairs of dynamic bodies; a body touching a moving kinematic body stays
     // awake (its island gets a member that never sleeps).
@@ -658,7 +679,10 @@ pub fn update_sleep(
             links.push((ia as u32, ib as u32));
         }
     }
-    for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep).into_iter().enumerate() {
+    for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep)
+        .into_iter()
+        .enumerate()
+    {
         let Some(root) = island else { continue };
         let entity = state.entities[i];
         if let Ok((_, linear, angular)) = bodies.get_mut(entity) {
@@ -669,6 +693,8 @@ pub fn update_sleep(
                 w.0 = Vec3::ZERO;
             }
         }
-        commands.entity(entity).insert(Sleeping { island: state.entities[root as usize] });
+        commands.entity(entity).insert(Sleeping {
+            island: state.entities[root as usize],
+        });
     }
 }

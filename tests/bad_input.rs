@@ -13,7 +13,7 @@ use impact3d::scenes::{self, headless_app, run_steps};
 /// Runs a scene where `bad` rests on a healthy box on the ground, and checks that `bad` is
 /// quarantined with an error naming it, that the healthy box stays finite and at rest, and
 /// that nothing panics. Returns the app for further checks.
-fn assert_quarantined(bad: impl Bundle, what: &str) -> (App, Entity, Entity) {
+fn quarantined_scene(bad: impl Bundle, what: &str) -> (App, Entity, Entity) {
     capture_logs();
     let mut app = headless_app(60.0);
     scenes::ground(app.world_mut());
@@ -46,6 +46,11 @@ fn assert_quarantined(bad: impl Bundle, what: &str) -> (App, Entity, Entity) {
         "{what}: healthy box disturbed: y = {y}"
     );
     (app, bad, healthy)
+}
+
+/// [`quarantined_scene`], for the checks alone.
+fn assert_quarantined(bad: impl Bundle, what: &str) {
+    let _ = quarantined_scene(bad, what);
 }
 
 /// A body resting on the healthy box at y = 1.5.
@@ -218,7 +223,7 @@ fn despawn_in_mid_contact() {
 /// A quarantined body rejoins the step once its input is fixed, with its marker removed.
 #[test]
 fn fixed_input_leaves_quarantine() {
-    let (mut app, bad, _) = assert_quarantined(
+    let (mut app, bad, _) = quarantined_scene(
         (
             on_top(Collider::sphere(0.5)),
             Mass(1.0),

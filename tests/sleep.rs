@@ -19,7 +19,11 @@ fn resting_box_sleeps_and_costs_nothing() {
     let (_, cube) = scenes::box_drop(app.world_mut());
     run_steps(&mut app, 150);
     assert!(asleep(&app, cube), "asleep after 2.5 s");
-    assert_eq!(app.world().resource::<SolverStats>().contacts, 0, "no contact work while asleep");
+    assert_eq!(
+        app.world().resource::<SolverStats>().contacts,
+        0,
+        "no contact work while asleep"
+    );
     let before = (position(&app, cube), rotation(&app, cube));
     run_steps(&mut app, 600);
     assert_eq!((position(&app, cube), rotation(&app, cube)), before);
@@ -49,14 +53,36 @@ fn touching_wakes_the_island() {
     let mut app = headless_app(60.0);
     scenes::ground(app.world_mut());
     let cubes: Vec<_> = (0..2)
-        .map(|i| app.world_mut().spawn(scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5 + i as f32, 0.0))).id())
+        .map(|i| {
+            app.world_mut()
+                .spawn(scenes::cuboid(
+                    Vec3::splat(0.5),
+                    1.0,
+                    Vec3::new(0.0, 0.5 + i as f32, 0.0),
+                ))
+                .id()
+        })
         .collect();
     run_steps(&mut app, 90);
     assert!(cubes.iter().all(|&c| asleep(&app, c)));
-    let ball = app.world_mut().spawn((scenes::ball(0.25, 1.0, Vec3::new(0.0, 2.6, 0.0), Vec3::new(0.0, -3.0, 0.0)), Restitution(1.0))).id();
+    let ball = app
+        .world_mut()
+        .spawn((
+            scenes::ball(
+                0.25,
+                1.0,
+                Vec3::new(0.0, 2.6, 0.0),
+                Vec3::new(0.0, -3.0, 0.0),
+            ),
+            Restitution(1.0),
+        ))
+        .id();
     // The ball's box, widened by its reach, meets the top cube's after about 6 steps.
     run_steps(&mut app, 8);
-    assert!(cubes.iter().all(|&c| !asleep(&app, c)), "the whole island woke");
+    assert!(
+        cubes.iter().all(|&c| !asleep(&app, c)),
+        "the whole island woke"
+    );
     // The top cube took part in the impact with its real mass: it was pushed down into the
     // stack, and the ball rebounded slower than the 3 m/s a fixed body would give it.
     assert!(velocity(&app, ball).y < 2.9, "{}", velocity(&app, ball));
@@ -70,33 +96,77 @@ fn touching_wakes_the_island() {
 fn user_changes_and_lost_support_wake() {
     let mut app = headless_app(60.0);
     scenes::ground(app.world_mut());
-    let lower = app.world_mut().spawn(scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0))).id();
-    let upper = app.world_mut().spawn(scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 1.5, 0.0))).id();
+    let lower = app
+        .world_mut()
+        .spawn(scenes::cuboid(
+            Vec3::splat(0.5),
+            1.0,
+            Vec3::new(0.0, 0.5, 0.0),
+        ))
+        .id();
+    let upper = app
+        .world_mut()
+        .spawn(scenes::cuboid(
+            Vec3::splat(0.5),
+            1.0,
+            Vec3::new(0.0, 1.5, 0.0),
+        ))
+        .id();
     run_steps(&mut app, 90);
     assert!(asleep(&app, lower) && asleep(&app, upper));
 
-    app.world_mut().entity_mut(lower).insert(LinearVelocity(Vec3::new(0.0, 0.0, 2.0)));
+    app.world_mut()
+        .entity_mut(lower)
+        .insert(LinearVelocity(Vec3::new(0.0, 0.0, 2.0)));
     run_steps(&mut app, 1);
-    assert!(!asleep(&app, lower) && !asleep(&app, upper), "the user's velocity woke the island");
+    assert!(
+        !asleep(&app, lower) && !asleep(&app, upper),
+        "the user's velocity woke the island"
+    );
     // The lower cube slides out from under the (frictionless) upper one, which falls.
     run_steps(&mut app, 120);
-    assert!((position(&app, upper).y - 0.5).abs() < 0.01, "fell: {}", position(&app, upper));
+    assert!(
+        (position(&app, upper).y - 0.5).abs() < 0.01,
+        "fell: {}",
+        position(&app, upper)
+    );
 
     let mut app = headless_app(60.0);
     scenes::ground(app.world_mut());
-    let lower = app.world_mut().spawn(scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0))).id();
-    let upper = app.world_mut().spawn(scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 1.5, 0.0))).id();
+    let lower = app
+        .world_mut()
+        .spawn(scenes::cuboid(
+            Vec3::splat(0.5),
+            1.0,
+            Vec3::new(0.0, 0.5, 0.0),
+        ))
+        .id();
+    let upper = app
+        .world_mut()
+        .spawn(scenes::cuboid(
+            Vec3::splat(0.5),
+            1.0,
+            Vec3::new(0.0, 1.5, 0.0),
+        ))
+        .id();
     run_steps(&mut app, 90);
     app.world_mut().despawn(lower);
     run_steps(&mut app, 60);
-    assert!((position(&app, upper).y - 0.5).abs() < 0.01, "fell onto the ground: {}", position(&app, upper));
+    assert!(
+        (position(&app, upper).y - 0.5).abs() < 0.01,
+        "fell onto the ground: {}",
+        position(&app, upper)
+    );
 }
 
 /// With sleeping disabled nothing ever sleeps.
 #[test]
 fn sleeping_can_be_disabled() {
     let mut app = headless_app(60.0);
-    app.world_mut().insert_resource(SleepConfig { enabled: false, ..default() });
+    app.world_mut().insert_resource(SleepConfig {
+        enabled: false,
+        ..default()
+    });
     let (_, cube) = scenes::box_drop(app.world_mut());
     run_steps(&mut app, 300);
     assert!(!asleep(&app, cube));

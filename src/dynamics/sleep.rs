@@ -23,7 +23,9 @@ pub struct Sleeping {
 
 impl Default for Sleeping {
     fn default() -> Self {
-        Sleeping { island: Entity::PLACEHOLDER }
+        Sleeping {
+            island: Entity::PLACEHOLDER,
+        }
     }
 }
 
@@ -46,7 +48,11 @@ pub struct SleepConfig {
 
 impl Default for SleepConfig {
     fn default() -> Self {
-        SleepConfig { enabled: true, linear_threshold: 0.05, time_to_sleep: 0.5 }
+        SleepConfig {
+            enabled: true,
+            linear_threshold: 0.05,
+            time_to_sleep: 0.5,
+        }
     }
 }
 
@@ -59,7 +65,9 @@ pub struct Islands {
 impl Islands {
     /// `n` singletons.
     pub fn new(n: usize) -> Self {
-        Islands { parent: (0..n as u32).collect() }
+        Islands {
+            parent: (0..n as u32).collect(),
+        }
     }
 
     /// The root (smallest member) of `i`'s island.
@@ -97,16 +105,20 @@ impl Islands {
 /// let asleep = islands_to_sleep(&timers, &[(0, 1), (2, 3)], 0.5);
 /// assert_eq!(asleep, vec![Some(0), Some(0), None, None]);
 /// ```
-pub fn islands_to_sleep(timers: &[Option<f32>], links: &[(u32, u32)], time_to_sleep: f32) -> Vec<Option<u32>> {
+pub fn islands_to_sleep(
+    timers: &[Option<f32>],
+    links: &[(u32, u32)],
+    time_to_sleep: f32,
+) -> Vec<Option<u32>> {
     let mut islands = Islands::new(timers.len());
     for &(a, b) in links {
         islands.union(a, b);
     }
     // An island may sleep only if every member is slow long enough.
     let mut ready = vec![true; timers.len()];
-    for i in 0..timers.len() {
+    for (i, timer) in timers.iter().enumerate() {
         let root = islands.find(i as u32) as usize;
-        if timers[i].is_none_or(|t| t < time_to_sleep) {
+        if timer.is_none_or(|t| t < time_to_sleep) {
             ready[root] = false;
         }
     }
@@ -127,8 +139,17 @@ mod tests {
     #[test]
     fn islands_sleep_together() {
         let t = |x: f32| Some(x);
-        assert_eq!(islands_to_sleep(&[t(1.0), t(1.0), t(1.0)], &[(0, 1), (1, 2)], 0.5), vec![Some(0); 3]);
-        assert_eq!(islands_to_sleep(&[t(1.0), t(1.0), t(0.2)], &[(0, 1), (1, 2)], 0.5), vec![None; 3]);
-        assert_eq!(islands_to_sleep(&[t(1.0), t(1.0), None], &[(1, 2)], 0.5), vec![Some(0), None, None]);
+        assert_eq!(
+            islands_to_sleep(&[t(1.0), t(1.0), t(1.0)], &[(0, 1), (1, 2)], 0.5),
+            vec![Some(0); 3]
+        );
+        assert_eq!(
+            islands_to_sleep(&[t(1.0), t(1.0), t(0.2)], &[(0, 1), (1, 2)], 0.5),
+            vec![None; 3]
+        );
+        assert_eq!(
+            islands_to_sleep(&[t(1.0), t(1.0), None], &[(1, 2)], 0.5),
+            vec![Some(0), None, None]
+        );
     }
 }

@@ -35,6 +35,31 @@ pub fn mass(app: &App, entity: Entity) -> f32 {
         .inverse_mass
 }
 
+/// World inertia tensor of a dynamic `entity`, kg m^2.
+pub fn world_inertia(app: &App, entity: Entity) -> Mat3 {
+    let computed = app.world().get::<ComputedMass>(entity).unwrap();
+    let r = Mat3::from_quat(rotation(app, entity));
+    r * computed.local_inverse_inertia.inverse() * r.transpose()
+}
+
+/// Total linear momentum, angular momentum about the origin, and kinetic energy of `bodies`.
+pub fn totals(app: &App, bodies: &[Entity]) -> (Vec3, Vec3, f32) {
+    let (mut p, mut l, mut ke) = (Vec3::ZERO, Vec3::ZERO, 0.0);
+    for &e in bodies {
+        let (m, x, v, w) = (
+            mass(app, e),
+            position(app, e),
+            velocity(app, e),
+            spin(app, e),
+        );
+        let inertia = world_inertia(app, e);
+        p += m * v;
+        l += x.cross(m * v) + inertia * w;
+        ke += 0.5 * m * v.length_squared() + 0.5 * w.dot(inertia * w);
+    }
+    (p, l, ke)
+}
+
 /// Drains the messages of type `M` written since the last call (the app's reader cursor is
 /// kept in a local `MessageCursor`).
 pub fn drain<M: Message + Clone>(
