@@ -22,8 +22,8 @@ pub mod prelude {
     pub use crate::collision::Collider;
     pub use crate::dynamics::{
         AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
-        LockedAxes, Mass, Quarantined, Restitution, RigidBody, SleepConfig, Sleeping, SolverConfig, SolverMethod,
-        SolverStats,
+        LockedAxes, Mass, Quarantined, Restitution, RigidBody, SleepConfig, Sleeping, SolverConfig,
+        SolverMethod, SolverStats,
     };
     pub use crate::messages::{CollisionEnded, CollisionStarted, Impact};
     pub use crate::schedule::{PhysicsSchedule, PhysicsSystems};

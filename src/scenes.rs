@@ -6,6 +6,7 @@
 //! # Examples
 //!
 //! ```
+//! use bevy::prelude::*;
 //! use impact3d::prelude::*;
 //! use impact3d::scenes;
 //!

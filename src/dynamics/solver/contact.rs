@@ -254,12 +254,13 @@ pub fn warm_start(bodies: &mut [SolverBody], contacts: &[ContactConstraint]) {
 
 /// Coulomb friction on one contact: each tangent row is solved for zero slip, then the
 /// accumulated friction impulse is clamped to the disc of radius `friction * normal_impulse`.
-pub fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
+/// Returns whether any velocity changed.
+pub fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) -> bool {
     let limit = c.friction * c.normal_impulse;
     let old = c.tangent_impulse;
     let mut new = old;
-    for k in 0..2 {
-        new[k] -= c.tangent_mass[k] * c.tangent_velocity(bodies, k);
+    for (k, impulse) in new.iter_mut().enumerate() {
+        *impulse -= c.tangent_mass[k] * c.tangent_velocity(bodies, k);
     }
     let len = (new[0] * new[0] + new[1] * new[1]).sqrt();
     if len > limit {
@@ -267,12 +268,15 @@ pub fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) {
         new = [new[0] * s, new[1] * s];
     }
     c.tangent_impulse = new;
+    let mut changed = false;
     for k in 0..2 {
         let delta = new[k] - old[k];
         if delta != 0.0 {
             c.apply_tangent_impulse(bodies, k, delta);
+            changed = true;
         }
     }
+    changed
 }
 
 #[cfg(test)]

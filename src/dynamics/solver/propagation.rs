@@ -77,7 +77,32 @@ pub fn propagate(
     let mut report = PropagationReport::default();
     let mut scratch: Vec<(f32, f32)> = Vec::new();
     let mut rows: Vec<ContactConstraint> = Vec::new();
+    // Only a group one of whose bodies changed velocity since the group was last checked can
+    // have started to approach: `stamp` is, per body, the number of the resolution that last
+    // changed it, and `checked` per group the resolution count when it was last found not
+    // approaching (or resolved). The pass stops as soon as no group needs a check, so an
+    // island of one impact costs one sweep, not a second one that finds nothing.
+    let mut stamp = vec![0u32; bodies.len()];
+    let mut checked = vec![0u32; groups.len()];
+    let mut resolutions = 0u32;
+    // The body pair of each group (the groups are single contacts or one pair's manifold).
+    let pairs: Vec<Option<(usize, usize)>> = groups
+        .iter()
+        .map(|g| {
+            contacts
+                .get(g.start)
+                .filter(|_| !g.is_empty())
+                .map(|c| (c.body_a, c.body_b))
+        })
+        .collect();
+    let needs_check = |k: usize, stamp: &[u32], checked: &[u32], sweeps: u32| {
+        pairs[k].is_some_and(|(a, b)| sweeps == 0 || stamp[a].max(stamp[b]) > checked[k])
+    };
     loop {
+        let pending = (0..groups.len()).any(|k| needs_check(k, &stamp, &checked, report.sweeps));
+        if !pending {
+            break;
+        }
         if report.sweeps == params.max_sweeps {
             report.bound_hit = groups.iter().any(|g| {
                 contacts[g.clone()]
@@ -87,21 +112,36 @@ pub fn propagate(
             break;
         }
         report.sweeps += 1;
-        let mut resolved_any = false;
-        for group in groups {
+        for (k, group) in groups.iter().enumerate() {
+            if !needs_check(k, &stamp, &checked, report.sweeps - 1) {
+                continue;
+            }
             let group_contacts = &mut contacts[group.clone()];
             if !group_contacts
                 .iter()
                 .any(|c| approaching(c, bodies, params))
             {
+                checked[k] = resolutions;
                 continue;
             }
             resolve_group(bodies, group_contacts, params, &mut scratch, &mut rows);
-            resolved_any = true;
             report.resolutions += 1;
-        }
-        if !resolved_any {
-            break;
+            resolutions += 1;
+            let (a, b) = (group_contacts[0].body_a, group_contacts[0].body_b);
+            for i in [a, b] {
+                if bodies[i].motion == Motion::Dynamic {
+                    stamp[i] = resolutions;
+                }
+            }
+            // A block stopped by its iteration bound may still approach: check it again.
+            let settled = !group_contacts
+                .iter()
+                .any(|c| approaching(c, bodies, params));
+            checked[k] = if settled {
+                resolutions
+            } else {
+                resolutions - 1
+            };
         }
     }
     report
@@ -199,16 +239,29 @@ fn resolve_group(
 
     // Solve copies of the rows with their anchors where the contact is at the time of impact:
     // each body's material point has moved by its velocity times t, and the two surface points
-    // meet at their mean. With anchors from the start of the step the equal and opposite
-    // impulses would act at two points `t (u_B - u_A)` apart, a spurious torque.
+    // meet at one common point, so that the equal and opposite impulses act at the same place
+    // (with anchors from the start of the step they would act at two points `t (u_B - u_A)`
+    // apart, a spurious torque). The common point is the mean of the two material points
+    // weighted by inverse mass, `(w_A u_A + w_B u_B) t` from the start, `w = (1/m) / (1/m_A +
+    // 1/m_B)`: the midpoint for equal masses, and the moving body's own point against a fixed
+    // one. The latter matters: a wall's closest point at the start of the step is not the point
+    // that gets hit, and a ball sliding along the wall as it closes in (a fast ball falling
+    // under gravity) would otherwise be struck off its line of centres and set spinning (at
+    // 100 m/s, 0.1 s of gravity, that cost 10% of the normal impulse).
     rows.clear();
     rows.extend_from_slice(group);
     if toi > 0.0 {
         let (a, b) = (&bodies[ia], &bodies[ib]);
+        let inverse = a.inverse_mass + b.inverse_mass;
+        let (w_a, w_b) = if inverse > 0.0 {
+            (a.inverse_mass / inverse, b.inverse_mass / inverse)
+        } else {
+            (0.5, 0.5)
+        };
         for row in rows.iter_mut() {
             let u_a = a.linear_velocity + a.angular_velocity.cross(row.anchor_a);
             let u_b = b.linear_velocity + b.angular_velocity.cross(row.anchor_b);
-            let meet = 0.5 * (u_a + u_b) * toi;
+            let meet = (w_a * u_a + w_b * u_b) * toi;
             row.anchor_a += meet - a.linear_velocity * toi;
             row.anchor_b += meet - b.linear_velocity * toi;
             row.prepare_normal_row(a, b);
@@ -358,7 +411,14 @@ mod tests {
             0.0,
         )];
         prepare_contacts(&bodies, &mut contacts);
-        propagate(&mut bodies, &mut contacts, &[0..1], &params());
+        let report = propagate(
+            &mut bodies,
+            &mut contacts,
+            std::slice::from_ref(&(0..1)),
+            &params(),
+        );
+        // One impact, nothing else touched: one sweep, and no second one that finds nothing.
+        assert_eq!((report.sweeps, report.resolutions), (1, 1));
         crate::dynamics::solver::body::integrate_positions(&mut bodies, Vec3::ZERO, 1.0 / 60.0);
         assert!((bodies[1].linear_velocity.x - 6.0).abs() <= 1e-5);
         // Exact: 0.05 m to the wall at 6 m/s, then 1/120 s back out at 6 m/s: x = 0.55.
