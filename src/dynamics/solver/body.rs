@@ -126,12 +126,52 @@ impl SolverBody {
     }
 }
 
-/// Adds gravity over `h` seconds to every dynamic body: `v += g h`.
+/// Adds gravity over `h` seconds to every dynamic body, `v += g h`, and the gyroscopic torque
+/// `-w x (I w)` to those whose inertia is not isotropic (see [`gyroscopic_step`]).
 pub fn integrate_velocities(bodies: &mut [SolverBody], gravity: Vec3, h: f32) {
     let dv = gravity * h;
     for body in bodies.iter_mut().filter(|b| b.motion == Motion::Dynamic) {
         body.linear_velocity += dv;
+        if !body.isotropic && !body.locked_rotation.any() && body.angular_velocity != Vec3::ZERO {
+            body.angular_velocity = gyroscopic_step(body, h);
+        }
     }
+}
+
+/// The angular velocity after `h` seconds of torque-free rotation, from Euler's equations
+/// `I dw/dt + w x (I w) = 0` in the body frame, integrated implicitly with one Newton step
+/// (Catto, "Numerical methods", GDC 2015):
+///
+/// ```text
+/// f(w) = I (w - w0) + h w x (I w),   J = I + h (skew(w) I - skew(I w)),   w = w0 - J^-1 f(w0)
+/// ```
+///
+/// The implicit step never adds energy; the explicit alternatives (holding `L = I w` fixed in
+/// the world and re-deriving `w` after rotating, or adding `-h I^-1 (w x I w)`) pump energy
+/// into a thin body spinning near its axis of largest inertia: a 1 m x 2 cm x 2 cm bar at
+/// 3.2 rad/s went from 0.43 J to 67 J in a second that way.
+pub fn gyroscopic_step(body: &SolverBody, h: f32) -> Vec3 {
+    let inertia = body.local_inverse_inertia.inverse();
+    let w = body.rotation.inverse() * body.angular_velocity;
+    let iw = inertia * w;
+    let f = h * w.cross(iw);
+    let jacobian = inertia + h * (skew(w) * inertia - skew(iw));
+    let det = jacobian.determinant();
+    if !(det.is_finite() && det.abs() > 0.0) {
+        return body.angular_velocity;
+    }
+    // Only the change goes back to the world frame: a round trip of `w` itself through an f32
+    // quaternion scales it by |q|^4, a bias of about 2e-7 per substep that would add energy.
+    body.angular_velocity - body.rotation * (jacobian.inverse() * f)
+}
+
+/// The matrix of `v x`.
+fn skew(v: Vec3) -> Mat3 {
+    Mat3::from_cols(
+        Vec3::new(0.0, v.z, -v.y),
+        Vec3::new(-v.z, 0.0, v.x),
+        Vec3::new(v.y, -v.x, 0.0),
+    )
 }
 
 /// Moves dynamic and kinematic bodies over `h` seconds (symplectic Euler: the velocities
@@ -144,8 +184,8 @@ pub fn integrate_velocities(bodies: &mut [SolverBody], gravity: Vec3, h: f32) {
 /// already including `g h`; bodies in contact keep symplectic Euler, whose velocity-level
 /// solve is what keeps resting contact still.
 ///
-/// A dynamic body whose inertia is not isotropic keeps its angular momentum `L = I w` as it
-/// turns: its world inverse inertia is recomputed at the new orientation and `w = I'^-1 L`.
+/// A dynamic body whose inertia is not isotropic has its world inverse inertia refreshed at the
+/// new orientation (its gyroscopic torque is applied in [`integrate_velocities`]).
 pub fn integrate_positions(bodies: &mut [SolverBody], gravity: Vec3, h: f32) {
     let parabola = -0.5 * gravity * h * h;
     for body in bodies.iter_mut().filter(|b| b.motion != Motion::Static) {
@@ -161,21 +201,10 @@ pub fn integrate_positions(bodies: &mut [SolverBody], gravity: Vec3, h: f32) {
         let rotation_vector = body.angular_velocity * h + turn;
         if rotation_vector != Vec3::ZERO {
             let dq = Quat::from_scaled_axis(rotation_vector);
-            let follow_inertia = body.motion == Motion::Dynamic && !body.isotropic;
-            // L = R I_body R^T w, with I_body the inverse of the local inverse inertia.
-            let momentum = follow_inertia.then(|| {
-                body.rotation
-                    * (body.local_inverse_inertia.inverse()
-                        * (body.rotation.inverse() * body.angular_velocity))
-            });
             body.rotation = (dq * body.rotation).normalize();
             body.delta_rotation = (dq * body.delta_rotation).normalize();
-            if let Some(l) = momentum {
+            if body.motion == Motion::Dynamic && !body.isotropic {
                 body.inverse_inertia = body.world_inverse_inertia(body.rotation);
-                if !body.locked_rotation.any() {
-                    body.angular_velocity = body.rotation
-                        * (body.local_inverse_inertia * (body.rotation.inverse() * l));
-                }
             }
         }
     }
@@ -251,22 +280,43 @@ mod tests {
         assert!((bodies[1].position - Vec3::X).length() <= 1e-6);
     }
 
-    /// A free asymmetric body keeps its angular momentum L = I w as it tumbles. Tolerance 1e-3
-    /// relative over 600 steps: quaternion normalisation in f32 is biased by about 2e-7 per
-    /// step, which accumulates coherently to about 1.3e-4 here; keeping w constant instead (no
-    /// inertia update) changes L by order 1.
+    /// Kinetic energy `w.I w / 2` and angular momentum `I w` of a free body.
+    fn spin_state(b: &SolverBody) -> (f32, Vec3) {
+        let l = b.inverse_inertia.inverse() * b.angular_velocity;
+        (0.5 * b.angular_velocity.dot(l), l)
+    }
+
+    /// Torque-free tumbling, 10 s at 4 substeps of 1/240 s: kinetic energy never rises (to
+    /// 1e-5 relative, f32 rounding), angular momentum keeps its direction and loses little
+    /// magnitude. Bodies: an asymmetric box spun about all axes, and the lab's thin bar
+    /// (1 m x 2 cm x 2 cm, 1 kg) spinning at 3.2 rad/s about its long axis's normal with a
+    /// 0.01 rad/s wobble, whose energy the explicit update multiplied by 150 in one second.
     #[test]
-    fn tumbling_body_conserves_angular_momentum() {
-        let inv_local = Mat3::from_diagonal(Vec3::new(1.0, 0.5, 0.25));
-        let mut bodies = [SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY)
-            .with_mass(1.0, inv_local, false, BVec3::FALSE)
-            .with_velocity(Vec3::ZERO, Vec3::new(1.0, 2.0, 0.5))];
-        let momentum = |b: &SolverBody| b.inverse_inertia.inverse() * b.angular_velocity;
-        let l0 = momentum(&bodies[0]);
-        for _ in 0..600 {
-            integrate_positions(&mut bodies, Vec3::ZERO, 1.0 / 60.0);
+    fn tumbling_never_gains_energy() {
+        let bar = {
+            let i = |a: f32, b: f32| (a * a + b * b) / 12.0;
+            Vec3::new(1.0 / i(0.02, 0.02), 1.0 / i(1.0, 0.02), 1.0 / i(1.0, 0.02))
+        };
+        for (inverse, w0, momentum_tolerance) in [
+            (Vec3::new(1.0, 0.5, 0.25), Vec3::new(1.0, 2.0, 0.5), 0.05),
+            (bar, Vec3::new(0.01, 0.0, 3.2), 1e-3),
+        ] {
+            let mut bodies = [SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY)
+                .with_mass(1.0, Mat3::from_diagonal(inverse), false, BVec3::FALSE)
+                .with_velocity(Vec3::ZERO, w0)];
+            let (ke0, l0) = spin_state(&bodies[0]);
+            for _ in 0..2400 {
+                integrate_velocities(&mut bodies, Vec3::ZERO, 1.0 / 240.0);
+                integrate_positions(&mut bodies, Vec3::ZERO, 1.0 / 240.0);
+                let (ke, _) = spin_state(&bodies[0]);
+                assert!(ke <= ke0 * (1.0 + 1e-5), "{w0}: energy rose {ke0} -> {ke}");
+            }
+            let (_, l1) = spin_state(&bodies[0]);
+            // The implicit step damps a little: the bound is what it must stay within.
+            assert!(
+                (l1 - l0).length() <= momentum_tolerance * l0.length(),
+                "{w0}: {l0} -> {l1}"
+            );
         }
-        let l1 = momentum(&bodies[0]);
-        assert!((l1 - l0).length() <= 1e-3 * l0.length(), "{l0} -> {l1}");
     }
 }
