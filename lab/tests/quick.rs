@@ -1,0 +1,72 @@
+//! Keeps the lab from rotting: runs its quick scenes, cut down further (`Mode::Smoke`), on
+//! impact3d alone into a temporary folder, and checks the files it writes.
+
+use impact3d_lab::{Mode, Options, report, run, scenes, sweep};
+
+#[test]
+fn smoke_run_writes_csv_and_svg() {
+    let out = std::env::temp_dir().join(format!("impact3d-lab-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let options = Options {
+        mode: Mode::Smoke,
+        peers: false,
+        out: out.clone(),
+        verbose: false,
+        only: Vec::new(),
+    };
+    let rows = run(&options).expect("the run writes its files");
+
+    let scenes = scenes::all(Mode::Smoke);
+    let expected: usize = scenes
+        .iter()
+        .map(|s| sweep::configs(s, Mode::Smoke, false).len())
+        .sum();
+    assert_eq!(rows.len(), expected);
+    assert!(
+        expected >= scenes.len() * sweep::METHODS.len(),
+        "every method runs on every scene"
+    );
+
+    let combined = std::fs::read_to_string(out.join("combined.csv")).unwrap();
+    let mut lines = combined.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header, report::CSV_HEADER.split(',').collect::<Vec<_>>());
+    let data: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(data.len(), expected);
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for row in &data {
+        assert_eq!(row.len(), header.len(), "{row:?}");
+        assert_eq!(row[column("engine")], "impact3d");
+        for name in [
+            "dt",
+            "ms_per_step",
+            "ms_spread",
+            "error",
+            "tolerance",
+            "penetration_m",
+            "drift_m",
+            "energy_change",
+        ] {
+            let value: f64 = row[column(name)]
+                .parse()
+                .unwrap_or_else(|_| panic!("{name} in {row:?}"));
+            assert!(value.is_finite(), "{name} is not finite in {row:?}");
+        }
+        assert!(row[column("ms_per_step")].parse::<f64>().unwrap() > 0.0);
+    }
+
+    for scene in &scenes {
+        let csv = std::fs::read_to_string(out.join(format!("{}.csv", scene.name))).unwrap();
+        assert!(csv.lines().count() > 1, "{} has rows", scene.name);
+        let svg = std::fs::read_to_string(out.join(format!("{}.svg", scene.name))).unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.contains("</svg>"),
+            "{} chart",
+            scene.name
+        );
+    }
+    let summary = std::fs::read_to_string(out.join("summary.svg")).unwrap();
+    assert!(summary.contains("</svg>") && summary.contains("Pareto front"));
+    assert!(out.join("summary.md").exists());
+    std::fs::remove_dir_all(&out).unwrap();
+}
