@@ -210,6 +210,23 @@ pub fn galilean_cannon(world: &mut World, m1: f32, m2: f32, v0: f32) -> (Entity,
     (ground, b1, b2)
 }
 
+/// A 1 m cube of `upper_mass` kg resting on a 1 m cube of 1 kg on the ground (default
+/// gravity). Returns (lower, upper).
+pub fn cube_on_cube(world: &mut World, upper_mass: f32) -> (Entity, Entity) {
+    ground(world);
+    let lower = world
+        .spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0)))
+        .id();
+    let upper = world
+        .spawn(cuboid(
+            Vec3::splat(0.5),
+            upper_mass,
+            Vec3::new(0.0, 1.5, 0.0),
+        ))
+        .id();
+    (lower, upper)
+}
+
 /// Case 11: a 1 m cube of 1 kg at rest on the ground (default gravity), restitution `e`.
 /// Returns (ground, cube).
 pub fn resting_box(world: &mut World, e: f32) -> (Entity, Entity) {

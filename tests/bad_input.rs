@@ -183,23 +183,7 @@ fn restitution_outside_unit_interval_is_clamped() {
 #[test]
 fn despawn_in_mid_contact() {
     let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let lower = app
-        .world_mut()
-        .spawn(scenes::cuboid(
-            Vec3::splat(0.5),
-            1.0,
-            Vec3::new(0.0, 0.5, 0.0),
-        ))
-        .id();
-    let upper = app
-        .world_mut()
-        .spawn(scenes::cuboid(
-            Vec3::splat(0.5),
-            5.0,
-            Vec3::new(0.0, 1.5, 0.0),
-        ))
-        .id();
+    let (lower, upper) = scenes::cube_on_cube(app.world_mut(), 5.0);
     let mut ended = MessageCursor::<CollisionEnded>::default();
     run_steps(&mut app, 30);
     assert!(drain(&mut app, &mut ended).is_empty());

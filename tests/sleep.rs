@@ -95,23 +95,7 @@ fn touching_wakes_the_island() {
 #[test]
 fn user_changes_and_lost_support_wake() {
     let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let lower = app
-        .world_mut()
-        .spawn(scenes::cuboid(
-            Vec3::splat(0.5),
-            1.0,
-            Vec3::new(0.0, 0.5, 0.0),
-        ))
-        .id();
-    let upper = app
-        .world_mut()
-        .spawn(scenes::cuboid(
-            Vec3::splat(0.5),
-            1.0,
-            Vec3::new(0.0, 1.5, 0.0),
-        ))
-        .id();
+    let (lower, upper) = scenes::cube_on_cube(app.world_mut(), 1.0);
     run_steps(&mut app, 90);
     assert!(asleep(&app, lower) && asleep(&app, upper));
 
@@ -132,23 +116,7 @@ fn user_changes_and_lost_support_wake() {
     );
 
     let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let lower = app
-        .world_mut()
-        .spawn(scenes::cuboid(
-            Vec3::splat(0.5),
-            1.0,
-            Vec3::new(0.0, 0.5, 0.0),
-        ))
-        .id();
-    let upper = app
-        .world_mut()
-        .spawn(scenes::cuboid(
-            Vec3::splat(0.5),
-            1.0,
-            Vec3::new(0.0, 1.5, 0.0),
-        ))
-        .id();
+    let (lower, upper) = scenes::cube_on_cube(app.world_mut(), 1.0);
     run_steps(&mut app, 90);
     app.world_mut().despawn(lower);
     run_steps(&mut app, 60);
