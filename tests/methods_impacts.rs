@@ -228,7 +228,7 @@ fn flat_box(e: f32, config: SolverConfig) -> (Vec3, Vec3, f32, SolverStats) {
     let (_, b) = scenes::box_landing_flat(app.world_mut(), e);
     app.update();
     (
-        vel(&app, b),
+        velocity(&app, b),
         spin(&app, b),
         kinetic_energy(&app, &[b]),
         stats(&app),
@@ -337,7 +337,7 @@ fn box_flat_soft_step_restitution_pass_spins() {
     let mut app = app_with(60.0, config);
     let (_, b) = scenes::box_landing_flat(app.world_mut(), 0.0);
     scenes::run_steps(&mut app, 10);
-    assert!(vel(&app, b).length() < 1e-3 && spin(&app, b).length() < 1e-3);
+    assert!(velocity(&app, b).length() < 1e-3 && spin(&app, b).length() < 1e-3);
 }
 
 /// Case 9: Jacobi solves the four corners from the same velocities, so the symmetric scene
@@ -360,9 +360,9 @@ fn cannon(config: SolverConfig) -> ([f32; 2], [f32; 2], f32) {
     let mut app = app_with(60.0, config);
     let (_, b1, b2) = scenes::galilean_cannon(app.world_mut(), 3.0, 1.0, 1.0);
     app.update();
-    let first = [vel(&app, b1).y, vel(&app, b2).y];
+    let first = [velocity(&app, b1).y, velocity(&app, b2).y];
     scenes::run_steps(&mut app, 30);
-    let last = [vel(&app, b1).y, vel(&app, b2).y];
+    let last = [velocity(&app, b1).y, velocity(&app, b2).y];
     (first, last, kinetic_energy(&app, &[b1, b2]))
 }
 
@@ -417,7 +417,10 @@ fn cannon_soft_step_loses_a_quarter_of_the_energy() {
 /// `iterative_methods_stop_early_at_rest`), and meets the wall with its soft rows.
 #[test]
 fn one_impact_costs_one_pass() {
-    for method in METHODS.into_iter().filter(|&m| m != SolverMethod::SoftStep) {
+    for method in SolverMethod::ALL
+        .into_iter()
+        .filter(|&m| m != SolverMethod::SoftStep)
+    {
         // Ball and wall.
         let mut app = methods_common::app(60.0, method);
         app.world_mut().insert_resource(Gravity(Vec3::ZERO));
@@ -447,9 +450,9 @@ fn one_impact_costs_one_pass() {
             }
         }
         assert!(
-            (vel(&app, ball) - Vec3::new(-5.0, 0.0, 0.0)).length() <= 1e-4,
+            (velocity(&app, ball) - Vec3::new(-5.0, 0.0, 0.0)).length() <= 1e-4,
             "{method:?}: {}",
-            vel(&app, ball)
+            velocity(&app, ball)
         );
         check_one_pass(method, s, "ball and wall");
 

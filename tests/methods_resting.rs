@@ -37,15 +37,15 @@ fn resting_box(hz: f64, config: SolverConfig, e: f32, seconds: f64) -> (f32, f32
     let steps = (seconds * hz) as u32;
     for i in 0..steps {
         app.update();
-        let y = pos(&app, cube).y;
+        let y = position(&app, cube).y;
         ymax = ymax.max(y);
         ymin = ymin.min(y);
         if i as f64 >= hz {
-            vmax = vmax.max(vel(&app, cube).length() + spin(&app, cube).length());
+            vmax = vmax.max(velocity(&app, cube).length() + spin(&app, cube).length());
         }
     }
     assert!(all_finite(&app, &[cube]));
-    (vmax, ymax, ymin, pos(&app, cube).y)
+    (vmax, ymax, ymin, position(&app, cube).y)
 }
 
 /// Case 11, the default: for e in {0, 0.5, 1} a box at rest stays below 1e-3 m/s after 1 s
@@ -168,20 +168,20 @@ fn column(mut app: App, n: usize, seconds: f32) -> (f32, f32, f32, bool) {
         scenes::stack(app.world_mut(), n)
     };
     let top = *cubes.last().unwrap();
-    let start: Vec<Vec3> = cubes.iter().map(|&c| pos(&app, c)).collect();
+    let start: Vec<Vec3> = cubes.iter().map(|&c| position(&app, c)).collect();
     let mut settled = Vec3::ZERO;
     let (mut sink, mut moved, mut spread) = (0.0f32, 0.0f32, 0.0f32);
     for i in 0..(seconds * 60.0) as u32 {
         app.update();
         if i == 59 {
-            settled = pos(&app, top);
+            settled = position(&app, top);
             sink = start[cubes.len() - 1].y - settled.y;
         }
         if i >= 59 {
-            moved = moved.max((pos(&app, top) - settled).length());
+            moved = moved.max((position(&app, top) - settled).length());
         }
         for (k, &c) in cubes.iter().enumerate() {
-            let d = pos(&app, c) - start[k];
+            let d = position(&app, c) - start[k];
             spread = spread.max(Vec2::new(d.x, d.z).length());
         }
     }
@@ -296,13 +296,13 @@ fn heavy_on_light(mut app: App, ratio: f32, seconds: f32) -> (f32, f32, f32, f32
     let (mut pen, mut ground, mut vmax) = (0.0f32, 0.0f32, 0.0f32);
     for _ in 0..(seconds * 60.0) as u32 {
         app.update();
-        pen = pen.max(1.0 - (pos(&app, heavy).y - pos(&app, light).y));
-        ground = ground.max(0.5 - pos(&app, light).y);
+        pen = pen.max(1.0 - (position(&app, heavy).y - position(&app, light).y));
+        ground = ground.max(0.5 - position(&app, light).y);
         vmax = vmax
-            .max(vel(&app, light).length())
-            .max(vel(&app, heavy).length());
+            .max(velocity(&app, light).length())
+            .max(velocity(&app, heavy).length());
     }
-    let offset = (pos(&app, heavy) - pos(&app, light)) * Vec3::new(1.0, 0.0, 1.0);
+    let offset = (position(&app, heavy) - position(&app, light)) * Vec3::new(1.0, 0.0, 1.0);
     (
         pen,
         ground,
@@ -370,10 +370,11 @@ fn heavy_on_light_1000_default_with_friction() {
     let (mut pen, mut ground) = (0.0f32, 0.0f32);
     for _ in 0..600 {
         app.update();
-        pen = pen.max(1.0 - (pos(&app, heavy).y - pos(&app, light).y));
-        ground = ground.max(0.5 - pos(&app, light).y);
+        pen = pen.max(1.0 - (position(&app, heavy).y - position(&app, light).y));
+        ground = ground.max(0.5 - position(&app, light).y);
     }
-    let offset = ((pos(&app, heavy) - pos(&app, light)) * Vec3::new(1.0, 0.0, 1.0)).length();
+    let offset =
+        ((position(&app, heavy) - position(&app, light)) * Vec3::new(1.0, 0.0, 1.0)).length();
     assert!(all_finite(&app, &[light, heavy]));
     assert!(offset < 0.01, "offset {offset}");
     assert!(

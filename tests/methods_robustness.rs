@@ -16,11 +16,11 @@ fn fast_thin_wall(config: SolverConfig) -> (f32, Vec3, bool) {
     let (mut xmax, mut impact) = (f32::MIN, false);
     for _ in 0..60 {
         app.update();
-        xmax = xmax.max(pos(&app, sphere).x);
+        xmax = xmax.max(position(&app, sphere).x);
         impact |= stats(&app).impacts > 0;
     }
     assert!(all_finite(&app, &[sphere]));
-    (xmax, vel(&app, sphere), impact)
+    (xmax, velocity(&app, sphere), impact)
 }
 
 /// Case 13: a sphere of radius 0.05 m at 100 m/s (1.67 m per step) against a 0.01 m wall,
@@ -30,7 +30,7 @@ fn fast_thin_wall(config: SolverConfig) -> (f32, Vec3, bool) {
 /// them every method lets it through: it ends beyond the wall (x > 10 m) still at 100 m/s.
 #[test]
 fn fast_sphere_stops_at_thin_wall_with_speculative_contacts() {
-    for method in METHODS {
+    for method in SolverMethod::ALL {
         let (xmax, v, impact) = fast_thin_wall(SolverConfig::for_method(method));
         assert!(xmax <= -0.05 + 1e-4, "{method:?}: reached x = {xmax}");
         assert!(v.length() < 1e-3, "{method:?}: left at {v}");
@@ -109,7 +109,7 @@ fn sweep(method: SolverMethod, hz: f64, substeps: u32) -> Sweep {
     bodies.push(fast);
     // Lowest point below each body's centre at rest.
     let half = [0.1, 0.5, 0.5, 0.5, 0.5, 0.05];
-    let start: Vec<f32> = bodies.iter().map(|&b| pos(&app, b).y).collect();
+    let start: Vec<f32> = bodies.iter().map(|&b| position(&app, b).y).collect();
     // Every body is 1 kg; gravity 10 m/s^2.
     let energy0: f32 = start[..5].iter().map(|y| 10.0 * y).sum();
     let mut out = Sweep {
@@ -127,17 +127,17 @@ fn sweep(method: SolverMethod, hz: f64, substeps: u32) -> Sweep {
         let energy = kinetic_energy(&app, &bodies[..5])
             + bodies[..5]
                 .iter()
-                .map(|&b| 10.0 * pos(&app, b).y)
+                .map(|&b| 10.0 * position(&app, b).y)
                 .sum::<f32>();
         out.gain = out.gain.max(energy - energy0);
         for (k, &b) in bodies.iter().enumerate() {
-            let y = pos(&app, b).y;
+            let y = position(&app, b).y;
             out.rise = out.rise.max(y - start[k]);
             // A tilted cube reaches lower than its half height; its centre stays above the
             // ground by at least that unless it sinks.
             out.depth = out.depth.max(half[k] - y);
         }
-        out.fast_x = out.fast_x.max(pos(&app, fast).x);
+        out.fast_x = out.fast_x.max(position(&app, fast).x);
     }
     out
 }

@@ -20,15 +20,6 @@ pub enum EngineKind {
     Rapier,
 }
 
-/// Every impact3d method, in chart order.
-pub const METHODS: [SolverMethod; 5] = [
-    SolverMethod::Hybrid,
-    SolverMethod::Propagation,
-    SolverMethod::SequentialImpulses,
-    SolverMethod::SoftStep,
-    SolverMethod::Jacobi,
-];
-
 /// avian3d's default substep count.
 pub const AVIAN_DEFAULT_SUBSTEPS: u32 = 6;
 /// Rapier's default solver iteration count (each one is a substep of its soft TGS solver).
@@ -158,7 +149,7 @@ pub fn configs(scene: &Scene, mode: Mode, peers: bool) -> Vec<RunConfig> {
     };
     let mut out = Vec::new();
     for &hz in rates {
-        for method in METHODS {
+        for method in SolverMethod::ALL {
             let usual = SolverConfig::for_method(method);
             match mode {
                 Mode::Full => out.extend(

@@ -23,7 +23,7 @@ fn smoke_run_writes_csv_and_svg() {
         .sum();
     assert_eq!(rows.len(), expected);
     assert!(
-        expected >= scenes.len() * sweep::METHODS.len(),
+        expected >= scenes.len() * impact3d::prelude::SolverMethod::ALL.len(),
         "every method runs on every scene"
     );
 

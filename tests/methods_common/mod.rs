@@ -7,14 +7,9 @@ use bevy::prelude::*;
 use impact3d::prelude::*;
 use impact3d::scenes;
 
-/// Every solver method, the default first.
-pub const METHODS: [SolverMethod; 5] = [
-    SolverMethod::Hybrid,
-    SolverMethod::Propagation,
-    SolverMethod::SequentialImpulses,
-    SolverMethod::SoftStep,
-    SolverMethod::Jacobi,
-];
+#[path = "../common/mod.rs"]
+mod common;
+pub use common::*;
 
 /// A headless app stepping at `hz` with `config` as its solver settings and sleeping off, so
 /// that every step exercises the solver (a sleeping island is not solved at all).
@@ -42,66 +37,24 @@ pub fn with_iterations(method: SolverMethod, iterations: u32) -> SolverConfig {
     }
 }
 
-/// Position of the body's origin, m.
-pub fn pos(app: &App, e: Entity) -> Vec3 {
-    app.world().get::<Transform>(e).unwrap().translation
-}
-
-/// Orientation.
-pub fn rot(app: &App, e: Entity) -> Quat {
-    app.world().get::<Transform>(e).unwrap().rotation
-}
-
-/// Linear velocity, m/s.
-pub fn vel(app: &App, e: Entity) -> Vec3 {
-    app.world().get::<LinearVelocity>(e).unwrap().0
-}
-
-/// Angular velocity, rad/s.
-pub fn spin(app: &App, e: Entity) -> Vec3 {
-    app.world().get::<AngularVelocity>(e).unwrap().0
-}
-
-/// Velocities along x of `bodies`, m/s.
-pub fn vx(app: &App, bodies: &[Entity]) -> Vec<f32> {
-    bodies.iter().map(|&b| vel(app, b).x).collect()
-}
-
-/// World inertia tensor, kg m^2 (the body must have been stepped once, which computes its
-/// mass properties).
-pub fn inertia(app: &App, e: Entity) -> Mat3 {
-    let c = app.world().get::<ComputedMass>(e).unwrap();
-    let r = Mat3::from_quat(rot(app, e));
-    r * c.local_inverse_inertia.inverse() * r.transpose()
-}
-
-/// Mass, kg (after the first step).
-pub fn mass(app: &App, e: Entity) -> f32 {
-    1.0 / app.world().get::<ComputedMass>(e).unwrap().inverse_mass
-}
-
 /// Kinetic energy (translation plus rotation) of `bodies`, J.
 pub fn kinetic_energy(app: &App, bodies: &[Entity]) -> f32 {
-    bodies
-        .iter()
-        .map(|&e| {
-            let (v, w) = (vel(app, e), spin(app, e));
-            0.5 * mass(app, e) * v.length_squared() + 0.5 * w.dot(inertia(app, e) * w)
-        })
-        .sum()
+    totals(app, bodies).2
 }
 
 /// Linear momentum of `bodies`, kg m/s.
 pub fn momentum(app: &App, bodies: &[Entity]) -> Vec3 {
-    bodies.iter().map(|&e| mass(app, e) * vel(app, e)).sum()
+    totals(app, bodies).0
 }
 
 /// Angular momentum of `bodies` about the origin, kg m^2/s.
 pub fn angular_momentum(app: &App, bodies: &[Entity]) -> Vec3 {
-    bodies
-        .iter()
-        .map(|&e| pos(app, e).cross(mass(app, e) * vel(app, e)) + inertia(app, e) * spin(app, e))
-        .sum()
+    totals(app, bodies).1
+}
+
+/// Velocities along x of `bodies`, m/s.
+pub fn vx(app: &App, bodies: &[Entity]) -> Vec<f32> {
+    bodies.iter().map(|&b| velocity(app, b).x).collect()
 }
 
 /// The solver statistics of the last step.
@@ -112,9 +65,9 @@ pub fn stats(app: &App) -> SolverStats {
 /// True when every body's pose and velocities are finite and it is not quarantined.
 pub fn all_finite(app: &App, bodies: &[Entity]) -> bool {
     bodies.iter().all(|&e| {
-        pos(app, e).is_finite()
-            && rot(app, e).is_finite()
-            && vel(app, e).is_finite()
+        position(app, e).is_finite()
+            && rotation(app, e).is_finite()
+            && velocity(app, e).is_finite()
             && spin(app, e).is_finite()
             && app.world().get::<Quarantined>(e).is_none()
     })

@@ -74,6 +74,17 @@ pub enum SolverMethod {
     Jacobi,
 }
 
+impl SolverMethod {
+    /// Every method, the default first.
+    pub const ALL: [SolverMethod; 5] = [
+        SolverMethod::Hybrid,
+        SolverMethod::Propagation,
+        SolverMethod::SequentialImpulses,
+        SolverMethod::SoftStep,
+        SolverMethod::Jacobi,
+    ];
+}
+
 /// Which contacts send an [`Impact`](crate::Impact) message.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ImpactMessages {
