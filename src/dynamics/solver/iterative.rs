@@ -366,9 +366,14 @@ pub struct ManifoldSolve {
 /// delta_i = -(v_i + b_i + c * sum_j lambda_j) / (K_ii + c).
 /// ```
 ///
-/// Sweeps between manifolds stay Gauss-Seidel (one per call). A block with a [`Support`] holds
-/// that body's rotation fixed: its angular terms are left out of `A` and of the applied
-/// impulse.
+/// Sweeps between manifolds stay Gauss-Seidel (one per call), except that consecutive blocks
+/// supporting the same body are swept together until none changes by more than the
+/// tolerance: a cube resting on two others (in a pyramid) otherwise takes its whole load on
+/// whichever support is solved first, rocks, and, frictionless, pushes its supports apart (a
+/// pyramid of base 10 spread 0.8 m in 20 s that way; 4.8 cm solved together). A block with a
+/// [`Support`] holds that body fixed: its terms are left out of `A` and it takes no impulse.
+/// With [`Block::load`] set, `K_mean` is replaced by `min(K_mean, 1 / load)`, so the manifold
+/// sinks by `g / (2 pi f)^2` under the load it carries.
 pub fn manifold_sweep(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
@@ -382,17 +387,54 @@ pub fn manifold_sweep(
         largest: 0.0,
         settled: true,
     };
-    for (k, block) in blocks.iter().enumerate() {
-        let group = &mut contacts[block.range.clone()];
-        let (converged, first, changed) = solve_block(bodies, group, block.support, solve, rows);
-        sweep.largest = sweep.largest.max(first);
-        sweep.settled &= converged;
-        if changed {
-            settling.changed(bodies, group[0].body_a, group[0].body_b, k);
+    let mut start = 0;
+    while start < blocks.len() {
+        // Consecutive blocks that support the same body are solved together, block after
+        // block, until none changes by more than the tolerance: a body resting on several
+        // supports takes its load consistently from all of them within the sweep.
+        let upper = blocks[start].upper(contacts);
+        let end = match upper {
+            Some(_) => {
+                start
+                    + blocks[start..]
+                        .iter()
+                        .take_while(|b| b.upper(contacts) == upper)
+                        .count()
+            }
+            None => start + 1,
+        };
+        let passes = if end - start > 1 {
+            solve.max_block_iterations.max(1)
+        } else {
+            1
+        };
+        for pass in 0..passes {
+            let mut largest = 0.0f32;
+            for (k, block) in blocks.iter().enumerate().take(end).skip(start) {
+                let group = &mut contacts[block.range.clone()];
+                let (converged, first, changed) = solve_block(bodies, group, block, solve, rows);
+                largest = largest.max(first);
+                if pass == 0 {
+                    sweep.largest = sweep.largest.max(first);
+                    sweep.settled &= converged;
+                }
+                if changed {
+                    settling.changed(bodies, group[0].body_a, group[0].body_b, k);
+                }
+            }
+            if largest <= solve.tolerance {
+                break;
+            }
         }
-        for c in group.iter_mut().filter(|c| c.friction > 0.0) {
-            settling.friction_changed |= solve_friction(bodies, c);
+        for block in &blocks[start..end] {
+            for c in contacts[block.range.clone()]
+                .iter_mut()
+                .filter(|c| c.friction > 0.0)
+            {
+                settling.friction_changed |= solve_friction(bodies, c);
+            }
         }
+        start = end;
     }
     sweep.settled &= !settling.friction_changed
         && blocks.iter().enumerate().all(|(k, block)| {
@@ -405,8 +447,8 @@ pub fn manifold_sweep(
 /// One row of a manifold block: `(bias, soft)`, or `None` when the row takes no part.
 pub type BlockRow = Option<(f32, bool)>;
 
-/// Which body of a manifold block is its support, whose rotation is held fixed while the block
-/// is solved (see `shock_order` in the solver module).
+/// Which body of a manifold block is its support, held fixed while the block is solved (see
+/// `shock_order` in the solver module).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Support {
     /// Neither: both bodies respond (the usual two-body solve).
@@ -417,16 +459,33 @@ pub enum Support {
     B,
 }
 
-/// One manifold of the hybrid method's resting solve: its contacts and its support.
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// One manifold of the hybrid method's resting solve: its contacts, its support, and the mass
+/// it carries.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Block {
     /// The manifold's range in the contact slice.
     pub range: Range<usize>,
     /// The body held fixed while the block is solved.
     pub support: Support,
+    /// The mass this manifold carries, kg: its supported body and that body's share of
+    /// everything it carries in turn (see `shock_order` in the solver module). 0 for a manifold
+    /// with no support, whose stiffness is then set by its own effective mass.
+    pub load: f32,
 }
 
-/// Applies `+impulse n` to B and `-impulse n` to A, leaving the support's rotation alone.
+impl Block {
+    /// The body this block supports, if it has a support.
+    pub fn upper(&self, contacts: &[ContactConstraint]) -> Option<usize> {
+        let c = &contacts[self.range.start];
+        match self.support {
+            Support::A => Some(c.body_b),
+            Support::B => Some(c.body_a),
+            Support::Neither => None,
+        }
+    }
+}
+
+/// Applies `+impulse n` to B and `-impulse n` to A, leaving the support alone.
 #[inline]
 fn apply_with_support(
     c: &ContactConstraint,
@@ -436,13 +495,15 @@ fn apply_with_support(
 ) {
     let (a, b) = super::body::pair_mut(bodies, c.body_a, c.body_b);
     let p = impulse * c.normal;
-    a.linear_velocity -= a.inverse_mass * p;
-    b.linear_velocity += b.inverse_mass * p;
-    if c.angular {
-        if support != Support::A {
+    if support != Support::A {
+        a.linear_velocity -= a.inverse_mass * p;
+        if c.angular {
             a.angular_velocity -= impulse * c.ang_a;
         }
-        if support != Support::B {
+    }
+    if support != Support::B {
+        b.linear_velocity += b.inverse_mass * p;
+        if c.angular {
             b.angular_velocity += impulse * c.ang_b;
         }
     }
@@ -453,14 +514,23 @@ fn apply_with_support(
 fn solve_block(
     bodies: &mut [SolverBody],
     group: &mut [ContactConstraint],
-    support: Support,
+    block: &Block,
     solve: &ManifoldSolve,
     rows: &mut Vec<BlockRow>,
 ) -> (bool, f32, bool) {
-    // The support's rotation is held fixed: it adds no angular terms.
-    let linear = bodies[group[0].body_a].inverse_mass + bodies[group[0].body_b].inverse_mass;
+    let support = block.support;
+    // The support is held fixed: it adds no terms.
     let (side_a, side_b) = (support != Support::A, support != Support::B);
-    // `K_ii` of row `c` with the support's rotation fixed.
+    let linear = if side_a {
+        bodies[group[0].body_a].inverse_mass
+    } else {
+        0.0
+    } + if side_b {
+        bodies[group[0].body_b].inverse_mass
+    } else {
+        0.0
+    };
+    // `K_ii` of row `c` with the support fixed.
     let diagonal = |c: &ContactConstraint| {
         let mut k = linear;
         if c.angular {
@@ -523,8 +593,11 @@ fn solve_block(
             if side_b {
                 sum += rn_b.dot(ang_b);
             }
-            let a2 = soft.mass_scale / soft.impulse_scale;
-            sum / (n * n * a2)
+            let mut k = sum / (n * n);
+            if block.load > 0.0 {
+                k = k.min(1.0 / block.load);
+            }
+            k * soft.impulse_scale / soft.mass_scale
         }
         _ => 0.0,
     };
@@ -678,6 +751,7 @@ mod tests {
         let blocks = [Block {
             range: 0..1,
             support: Support::Neither,
+            load: 0.0,
         }];
         let sweep = manifold_sweep(
             &mut block_bodies,
@@ -715,6 +789,7 @@ mod tests {
         let blocks = [Block {
             range: 0..4,
             support: Support::Neither,
+            load: 0.0,
         }];
         manifold_sweep(
             &mut bodies,
