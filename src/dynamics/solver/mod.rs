@@ -388,6 +388,11 @@ fn rigid_substeps(
             }
         }
     }
+    // Every impulse is kept for the next step's warm start, impacts' included. An impact's
+    // impulse does not recur, and one unconverged iteration on a 3-ball cradle re-applies it
+    // (138% more energy), but dropping it is worse where it matters: at large steps gravity's
+    // `g dt` exceeds the restitution threshold, a resting contact counts as an impact every
+    // step, and cold-starting it leaves Jacobi's resting box at 15 Hz moving at 2 mm/s.
 }
 
 /// The manifolds of the hybrid method's resting solve, ordered from the ground up and each with
