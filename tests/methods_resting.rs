@@ -159,10 +159,25 @@ fn resting_box_large_step_hops_for_sequential_impulses_and_jacobi() {
     }
 }
 
-/// Runs a stack of `n` cubes (or, with `n = 0`, the pyramid of base 10) for `seconds`:
-/// (top cube's vertical sink at 1 s, largest displacement of the top cube from where it was
-/// spawned, largest horizontal displacement of any cube from its start, all finite).
-fn column(mut app: App, n: usize, seconds: f32) -> (f32, f32, f32, bool) {
+/// What a run of a stack or pyramid did (see [`column`]).
+struct Column {
+    /// The top cube's vertical sink at 1 s, m.
+    sink: f32,
+    /// Largest displacement of the top cube from where it was spawned, m.
+    moved: f32,
+    /// Largest horizontal displacement of any cube from its start, m.
+    spread: f32,
+    /// Largest kinetic energy of all the cubes after the first second, J.
+    kinetic: f32,
+    /// Largest horizontal momentum of all the cubes, kg m/s. The frictionless flat ground
+    /// pushes only vertically, so it is conserved at 0.
+    sideways: f32,
+    /// Every state finite at the end.
+    finite: bool,
+}
+
+/// Runs a stack of `n` cubes (or, with `n = 0`, the pyramid of base 10) for `seconds`.
+fn column(mut app: App, n: usize, seconds: f32) -> Column {
     let cubes = if n == 0 {
         scenes::pyramid(app.world_mut(), 10)
     } else {
@@ -171,19 +186,49 @@ fn column(mut app: App, n: usize, seconds: f32) -> (f32, f32, f32, bool) {
     let top = *cubes.last().unwrap();
     let start: Vec<Vec3> = cubes.iter().map(|&c| position(&app, c)).collect();
     let top_start = start[cubes.len() - 1];
-    let (mut sink, mut moved, mut spread) = (0.0f32, 0.0f32, 0.0f32);
+    let mut run = Column {
+        sink: 0.0,
+        moved: 0.0,
+        spread: 0.0,
+        kinetic: 0.0,
+        sideways: 0.0,
+        finite: false,
+    };
     for i in 0..(seconds * 60.0) as u32 {
         app.update();
         if i == 59 {
-            sink = top_start.y - position(&app, top).y;
+            run.sink = top_start.y - position(&app, top).y;
         }
-        moved = moved.max((position(&app, top) - top_start).length());
+        run.moved = run.moved.max((position(&app, top) - top_start).length());
         for (k, &c) in cubes.iter().enumerate() {
             let d = position(&app, c) - start[k];
-            spread = spread.max(Vec2::new(d.x, d.z).length());
+            run.spread = run.spread.max(Vec2::new(d.x, d.z).length());
+        }
+        let (p, _, ke) = totals(&app, &cubes);
+        run.sideways = run.sideways.max(Vec2::new(p.x, p.z).length());
+        if i >= 59 {
+            run.kinetic = run.kinetic.max(ke);
         }
     }
-    (sink, moved, spread, all_finite(&app, &cubes))
+    run.finite = all_finite(&app, &cubes);
+    run
+}
+
+/// Energy and momentum of a standing column or pyramid of `mass` kg. After the first second the
+/// cubes' RMS speed `sqrt(2 KE / M)` stays below 5 mm/s: a standing structure has no kinetic
+/// energy to speak of, and 5 mm/s is a tenth of the sleep threshold (measured: at most 0.1 mm/s
+/// for the columns and 1.9 mm/s for the awake pyramid). The horizontal momentum, conserved at 0
+/// since the frictionless flat ground pushes only vertically, stays below `M` x 0.1 mm/s
+/// (measured at most 7e-5 kg m/s, f32 rounding of the normals and the one-substep lag of a
+/// support's response, see `shock_order`).
+fn assert_energy_and_momentum(run: &Column, mass: f32) {
+    let rms = (2.0 * run.kinetic / mass).sqrt();
+    assert!(rms < 0.005, "RMS speed {rms} m/s after the first second");
+    assert!(
+        run.sideways < 1e-4 * mass,
+        "horizontal momentum {} kg m/s",
+        run.sideways
+    );
 }
 
 /// The default's sink per supporting contact, m: each manifold's stiffness is scaled by the
@@ -201,17 +246,21 @@ fn contact_sink() -> f32 {
 #[test]
 fn stacks_stand_with_the_default() {
     for n in [10, 20] {
-        let (sink, moved, spread, finite) = column(scenes::headless_app(60.0), n, 20.0);
+        let run = column(scenes::headless_app(60.0), n, 20.0);
         let expected = n as f32 * contact_sink();
-        assert!(finite);
+        assert!(run.finite);
         assert!(
-            moved < 0.01 && spread < 0.01,
-            "{n}: moved {moved}, spread {spread}"
+            run.moved < 0.01 && run.spread < 0.01,
+            "{n}: moved {}, spread {}",
+            run.moved,
+            run.spread
         );
         assert!(
-            (sink - expected).abs() <= 0.03 * expected,
-            "{n}: sink {sink} vs {expected}"
+            (run.sink - expected).abs() <= 0.03 * expected,
+            "{n}: sink {} vs {expected}",
+            run.sink
         );
+        assert_energy_and_momentum(&run, n as f32);
     }
 }
 
@@ -224,17 +273,21 @@ fn stacks_stand_with_the_default() {
 #[test]
 fn stacks_stand_with_the_default_solver_awake() {
     for n in [10, 20] {
-        let (sink, moved, spread, finite) = column(app(60.0, SolverMethod::Hybrid), n, 20.0);
+        let run = column(app(60.0, SolverMethod::Hybrid), n, 20.0);
         let expected = n as f32 * contact_sink();
-        assert!(finite);
+        assert!(run.finite);
         assert!(
-            moved < 0.01 && spread < 0.01,
-            "{n}: moved {moved}, spread {spread}"
+            run.moved < 0.01 && run.spread < 0.01,
+            "{n}: moved {}, spread {}",
+            run.moved,
+            run.spread
         );
         assert!(
-            (sink - expected).abs() <= 0.03 * expected,
-            "{n}: sink {sink} vs {expected}"
+            (run.sink - expected).abs() <= 0.03 * expected,
+            "{n}: sink {} vs {expected}",
+            run.sink
         );
+        assert_energy_and_momentum(&run, n as f32);
     }
 }
 
@@ -254,12 +307,16 @@ fn stacks_fall_with_the_other_methods() {
         SolverMethod::SequentialImpulses,
         SolverMethod::SoftStep,
     ] {
-        let (_, _, spread, _) = column(app(60.0, method), 10, 20.0);
+        let spread = column(app(60.0, method), 10, 20.0).spread;
         assert!(spread > 0.5, "{method:?}: largest sideways move {spread}");
     }
-    let (_, moved, spread, finite) = column(app(60.0, SolverMethod::Jacobi), 10, 20.0);
-    assert!(finite && spread == 0.0, "Jacobi stays symmetric: {spread}");
-    assert!(moved > 0.3, "Jacobi: the top cube moved {moved}");
+    let run = column(app(60.0, SolverMethod::Jacobi), 10, 20.0);
+    assert!(
+        run.finite && run.spread == 0.0,
+        "Jacobi stays symmetric: {}",
+        run.spread
+    );
+    assert!(run.moved > 0.3, "Jacobi: the top cube moved {}", run.moved);
 }
 
 /// Case 12, the pyramid of base 10 with the true default (sleeping on): the top cube moves less
@@ -269,17 +326,21 @@ fn stacks_fall_with_the_other_methods() {
 /// a row), so its sink is `10 g / (2 pi 30)^2` = 2.76 mm within 10% (measured 2.68 mm).
 #[test]
 fn pyramid_stands_with_the_default() {
-    let (sink, moved, spread, finite) = column(scenes::headless_app(60.0), 0, 20.0);
-    assert!(finite);
+    let run = column(scenes::headless_app(60.0), 0, 20.0);
+    assert!(run.finite);
     assert!(
-        moved < 0.01 && spread < 0.01,
-        "moved {moved}, spread {spread}"
+        run.moved < 0.01 && run.spread < 0.01,
+        "moved {}, spread {}",
+        run.moved,
+        run.spread
     );
     let expected = 10.0 * contact_sink();
     assert!(
-        (sink - expected).abs() <= 0.1 * expected,
-        "sink {sink} vs {expected}"
+        (run.sink - expected).abs() <= 0.1 * expected,
+        "sink {} vs {expected}",
+        run.sink
     );
+    assert_energy_and_momentum(&run, 55.0);
 }
 
 /// Case 12, the pyramid with the default's solver awake (sleeping off) for 20 s: the top cube
@@ -289,10 +350,11 @@ fn pyramid_stands_with_the_default() {
 /// solved together (see `manifold_sweep`), the bottom row slid out 0.8 m in the same time.
 #[test]
 fn pyramid_holds_with_the_default_solver_awake() {
-    let (_, moved, spread, finite) = column(app(60.0, SolverMethod::Hybrid), 0, 20.0);
-    assert!(finite);
-    assert!(moved < 0.01, "top moved {moved}");
-    assert!(spread < 0.1, "largest sideways move {spread}");
+    let run = column(app(60.0, SolverMethod::Hybrid), 0, 20.0);
+    assert!(run.finite);
+    assert!(run.moved < 0.01, "top moved {}", run.moved);
+    assert!(run.spread < 0.1, "largest sideways move {}", run.spread);
+    assert_energy_and_momentum(&run, 55.0);
 }
 
 /// Case 12, heavy on light with `ratio` under `app` for `seconds`: (largest penetration of the
