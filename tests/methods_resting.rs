@@ -238,6 +238,26 @@ fn contact_sink() -> f32 {
     G * compliance(30.0)
 }
 
+/// A column of `n` cubes stood: the top moved less than 1 cm from its spawn point, no cube
+/// moved sideways more than 1 cm, the sink at 1 s is `n` contact sinks within 3%, and energy and
+/// momentum are as [`assert_energy_and_momentum`] requires.
+fn assert_column_stands(run: Column, n: usize) {
+    let expected = n as f32 * contact_sink();
+    assert!(run.finite);
+    assert!(
+        run.moved < 0.01 && run.spread < 0.01,
+        "{n}: moved {}, spread {}",
+        run.moved,
+        run.spread
+    );
+    assert!(
+        (run.sink - expected).abs() <= 0.03 * expected,
+        "{n}: sink {} vs {expected}",
+        run.sink
+    );
+    assert_energy_and_momentum(&run, n as f32);
+}
+
 /// Case 12, stacks of 10 and 20 cubes with the true default (sleeping on): the top cube moves
 /// less than 1 cm in 20 s from where it was spawned, and no cube moves sideways more than
 /// 1 cm. The top sinks by one contact sink per cube, `N g / (2 pi 30)^2`: 2.76 mm for 10 cubes,
@@ -246,21 +266,7 @@ fn contact_sink() -> f32 {
 #[test]
 fn stacks_stand_with_the_default() {
     for n in [10, 20] {
-        let run = column(scenes::headless_app(60.0), n, 20.0);
-        let expected = n as f32 * contact_sink();
-        assert!(run.finite);
-        assert!(
-            run.moved < 0.01 && run.spread < 0.01,
-            "{n}: moved {}, spread {}",
-            run.moved,
-            run.spread
-        );
-        assert!(
-            (run.sink - expected).abs() <= 0.03 * expected,
-            "{n}: sink {} vs {expected}",
-            run.sink
-        );
-        assert_energy_and_momentum(&run, n as f32);
+        assert_column_stands(column(scenes::headless_app(60.0), n, 20.0), n);
     }
 }
 
@@ -273,21 +279,7 @@ fn stacks_stand_with_the_default() {
 #[test]
 fn stacks_stand_with_the_default_solver_awake() {
     for n in [10, 20] {
-        let run = column(app(60.0, SolverMethod::Hybrid), n, 20.0);
-        let expected = n as f32 * contact_sink();
-        assert!(run.finite);
-        assert!(
-            run.moved < 0.01 && run.spread < 0.01,
-            "{n}: moved {}, spread {}",
-            run.moved,
-            run.spread
-        );
-        assert!(
-            (run.sink - expected).abs() <= 0.03 * expected,
-            "{n}: sink {} vs {expected}",
-            run.sink
-        );
-        assert_energy_and_momentum(&run, n as f32);
+        assert_column_stands(column(app(60.0, SolverMethod::Hybrid), n, 20.0), n);
     }
 }
 
