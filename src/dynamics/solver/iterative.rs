@@ -417,6 +417,10 @@ pub fn manifold_sweep(
                 if pass == 0 {
                     sweep.largest = sweep.largest.max(first);
                     sweep.settled &= converged;
+                } else if changed {
+                    // A later pass re-solved a block after its neighbours: the marks below
+                    // no longer order the changes, so the sweep cannot count as settled.
+                    sweep.settled = false;
                 }
                 if changed {
                     settling.changed(bodies, group[0].body_a, group[0].body_b, k);
