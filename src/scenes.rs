@@ -211,7 +211,8 @@ pub fn galilean_cannon(world: &mut World, m1: f32, m2: f32, v0: f32) -> (Entity,
 }
 
 /// A 1 m cube of `upper_mass` kg resting on a 1 m cube of 1 kg on the ground (default
-/// gravity). Returns (lower, upper).
+/// gravity); with `upper_mass` 100 or 1000, case 12's heavy-on-light pair. Returns (lower,
+/// upper).
 pub fn cube_on_cube(world: &mut World, upper_mass: f32) -> (Entity, Entity) {
     ground(world);
     let lower = world
@@ -279,19 +280,6 @@ pub fn pyramid(world: &mut World, base: usize) -> Vec<Entity> {
         }
     }
     cubes
-}
-
-/// Case 12: a heavy 1 m cube of `ratio` kg resting on a light one of 1 kg on the ground.
-/// Returns (light, heavy).
-pub fn heavy_on_light(world: &mut World, ratio: f32) -> (Entity, Entity) {
-    ground(world);
-    let light = world
-        .spawn(cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0)))
-        .id();
-    let heavy = world
-        .spawn(cuboid(Vec3::splat(0.5), ratio, Vec3::new(0.0, 1.5, 0.0)))
-        .id();
-    (light, heavy)
 }
 
 /// Case 13: a sphere of radius 0.05 m at 100 m/s along +x towards a static wall 0.01 m thick

@@ -353,7 +353,7 @@ fn pyramid_holds_with_the_default_solver_awake() {
 /// heavy box into the light one, largest penetration of the light box into the ground, largest
 /// speed, final horizontal offset between them, all finite).
 fn heavy_on_light(mut app: App, ratio: f32, seconds: f32) -> (f32, f32, f32, f32, bool) {
-    let (light, heavy) = scenes::heavy_on_light(app.world_mut(), ratio);
+    let (light, heavy) = scenes::cube_on_cube(app.world_mut(), ratio);
     let (mut pen, mut ground, mut vmax) = (0.0f32, 0.0f32, 0.0f32);
     for _ in 0..(seconds * 60.0) as u32 {
         app.update();
@@ -412,7 +412,7 @@ fn heavy_on_light_default() {
 #[test]
 fn heavy_on_light_1000_default_with_friction() {
     let mut app = scenes::headless_app(60.0);
-    let (light, heavy) = scenes::heavy_on_light(app.world_mut(), 1000.0);
+    let (light, heavy) = scenes::cube_on_cube(app.world_mut(), 1000.0);
     app.world_mut().entity_mut(light).insert(Friction(0.5));
     app.world_mut().entity_mut(heavy).insert(Friction(0.5));
     let (mut pen, mut ground) = (0.0f32, 0.0f32);

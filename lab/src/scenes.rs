@@ -423,7 +423,7 @@ pub fn all(mode: Mode) -> Vec<Scene> {
                     "case 12: {ratio} kg cube resting on a 1 kg cube; error = largest displacement, m"
                 ),
                 build: Box::new(move |w| {
-                    shared::heavy_on_light(w, ratio as f32);
+                    shared::cube_on_cube(w, ratio as f32);
                 }),
                 duration: 5.0,
                 check: Check::Drift,
