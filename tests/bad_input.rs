@@ -16,15 +16,7 @@ use impact3d::scenes::{self, headless_app, run_steps};
 fn quarantined_scene(bad: impl Bundle, what: &str) -> (App, Entity, Entity) {
     capture_logs();
     let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let healthy = app
-        .world_mut()
-        .spawn(scenes::cuboid(
-            Vec3::splat(0.5),
-            1.0,
-            Vec3::new(0.0, 0.5, 0.0),
-        ))
-        .id();
+    let healthy = scenes::stack(app.world_mut(), 1)[0];
     let bad = app.world_mut().spawn(bad).id();
     run_steps(&mut app, 60);
     let quarantined = app.world().get::<Quarantined>(bad);

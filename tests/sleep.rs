@@ -51,18 +51,7 @@ fn frictionless_stack_sleeps() {
 #[test]
 fn touching_wakes_the_island() {
     let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let cubes: Vec<_> = (0..2)
-        .map(|i| {
-            app.world_mut()
-                .spawn(scenes::cuboid(
-                    Vec3::splat(0.5),
-                    1.0,
-                    Vec3::new(0.0, 0.5 + i as f32, 0.0),
-                ))
-                .id()
-        })
-        .collect();
+    let cubes = scenes::stack(app.world_mut(), 2);
     run_steps(&mut app, 90);
     assert!(cubes.iter().all(|&c| asleep(&app, c)));
     let ball = app
