@@ -441,14 +441,7 @@ fn one_impact_costs_one_pass() {
                 Restitution(1.0),
             ))
             .id();
-        let mut s = stats(&app);
-        for _ in 0..3 {
-            app.update();
-            if stats(&app).impacts > 0 {
-                s = stats(&app);
-                break;
-            }
-        }
+        let s = step_to_first_impact(&mut app);
         assert!(
             (velocity(&app, ball) - Vec3::new(-5.0, 0.0, 0.0)).length() <= 1e-4,
             "{method:?}: {}",
@@ -483,14 +476,7 @@ fn one_impact_costs_one_pass() {
                 Restitution(1.0),
             ))
             .id();
-        let mut s = stats(&app);
-        for _ in 0..3 {
-            app.update();
-            if stats(&app).impacts > 0 {
-                s = stats(&app);
-                break;
-            }
-        }
+        let s = step_to_first_impact(&mut app);
         assert_close(
             &format!("{method:?} pair"),
             &vx(&app, &[a, b]),
@@ -499,6 +485,18 @@ fn one_impact_costs_one_pass() {
         );
         check_one_pass(method, s, "two balls");
     }
+}
+
+/// Steps `app` until a step resolves an impact, at most 3 steps, and returns that step's
+/// statistics (or the last step's, if none did).
+fn step_to_first_impact(app: &mut App) -> SolverStats {
+    for _ in 0..3 {
+        app.update();
+        if stats(app).impacts > 0 {
+            break;
+        }
+    }
+    stats(app)
 }
 
 #[track_caller]
