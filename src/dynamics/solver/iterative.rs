@@ -478,14 +478,19 @@ pub struct Block {
 }
 
 impl Block {
-    /// The body this block supports, if it has a support.
-    pub fn upper(&self, contacts: &[ContactConstraint]) -> Option<usize> {
+    /// (the body this block supports, its support), if it has a support.
+    pub fn pair(&self, contacts: &[ContactConstraint]) -> Option<(usize, usize)> {
         let c = &contacts[self.range.start];
         match self.support {
-            Support::A => Some(c.body_b),
-            Support::B => Some(c.body_a),
+            Support::A => Some((c.body_b, c.body_a)),
+            Support::B => Some((c.body_a, c.body_b)),
             Support::Neither => None,
         }
+    }
+
+    /// The body this block supports, if it has a support.
+    pub fn upper(&self, contacts: &[ContactConstraint]) -> Option<usize> {
+        self.pair(contacts).map(|(upper, _)| upper)
     }
 }
 

@@ -521,22 +521,13 @@ fn carried_loads(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: 
             0.0
         }
     };
-    // (supported body, supporting body) of a block, if it has a support.
-    let pair = |block: &Block| {
-        let c = &contacts[block.range.start];
-        match block.support {
-            Support::A => Some((c.body_b, c.body_a)),
-            Support::B => Some((c.body_a, c.body_b)),
-            Support::Neither => None,
-        }
-    };
     let mut load: Vec<f32> = (0..bodies.len()).map(mass).collect();
     let mut supports = vec![0u32; bodies.len()];
-    for (upper, _) in blocks.iter().filter_map(pair) {
+    for upper in blocks.iter().filter_map(|b| b.upper(contacts)) {
         supports[upper] += 1;
     }
     for block in blocks.iter_mut().rev() {
-        if let Some((upper, lower)) = pair(block) {
+        if let Some((upper, lower)) = block.pair(contacts) {
             let share = load[upper] / supports[upper] as f32;
             block.load = share;
             if bodies[lower].motion == Motion::Dynamic {
