@@ -730,6 +730,37 @@ mod tests {
         (bodies, contacts)
     }
 
+    /// One `manifold_sweep` over `contacts` as a single two-body block (no support, no load) at
+    /// `h = 1/240` s with Box2D's 3 m/s push-out cap, iterated to `tolerance`.
+    fn sweep_one_block(
+        bodies: &mut [SolverBody],
+        contacts: &mut [ContactConstraint],
+        soft: Softness,
+        tolerance: f32,
+    ) -> Sweep {
+        let solve = ManifoldSolve {
+            soft: Some(soft),
+            inv_h: 240.0,
+            max_push_out: 3.0,
+            leave_impacts: None,
+            max_block_iterations: 64,
+            tolerance,
+        };
+        let blocks = [Block {
+            range: 0..contacts.len(),
+            support: Support::Neither,
+            load: 0.0,
+        }];
+        manifold_sweep(
+            bodies,
+            contacts,
+            &blocks,
+            &solve,
+            &mut Settling::default(),
+            &mut Vec::new(),
+        )
+    }
+
     /// A manifold block of one point is Box2D's soft row exactly (see `manifold_sweep`): the
     /// same velocities and impulse, to f32 rounding (1e-6), for a penetrating, approaching,
     /// spinning box corner.
@@ -747,27 +778,7 @@ mod tests {
             None,
             &mut Settling::default(),
         );
-        let solve = ManifoldSolve {
-            soft: Some(soft),
-            inv_h: 240.0,
-            max_push_out: 3.0,
-            leave_impacts: None,
-            max_block_iterations: 64,
-            tolerance: 1e-6,
-        };
-        let blocks = [Block {
-            range: 0..1,
-            support: Support::Neither,
-            load: 0.0,
-        }];
-        let sweep = manifold_sweep(
-            &mut block_bodies,
-            &mut block,
-            &blocks,
-            &solve,
-            &mut Settling::default(),
-            &mut Vec::new(),
-        );
+        let sweep = sweep_one_block(&mut block_bodies, &mut block, soft, 1e-6);
         assert!(sweep.settled, "one row settles in one pass");
         assert!((rows[0].normal_impulse - block[0].normal_impulse).abs() <= 1e-6);
         let (a, b) = (&rows_bodies[1], &block_bodies[1]);
@@ -785,27 +796,7 @@ mod tests {
         let corners = [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)]
             .map(|(x, z)| Vec3::new(x, -0.01, z));
         let (mut bodies, mut contacts) = box_on_ground(&corners);
-        let solve = ManifoldSolve {
-            soft: Some(soft),
-            inv_h: 240.0,
-            max_push_out: 3.0,
-            leave_impacts: None,
-            max_block_iterations: 64,
-            tolerance: 1e-7,
-        };
-        let blocks = [Block {
-            range: 0..4,
-            support: Support::Neither,
-            load: 0.0,
-        }];
-        manifold_sweep(
-            &mut bodies,
-            &mut contacts,
-            &blocks,
-            &solve,
-            &mut Settling::default(),
-            &mut Vec::new(),
-        );
+        sweep_one_block(&mut bodies, &mut contacts, soft, 1e-7);
         let v: Vec<f32> = contacts
             .iter()
             .map(|c| c.normal_velocity(&bodies))
