@@ -213,10 +213,13 @@ fn step_sweep_soft_step() {
     }
 }
 
-/// Case 14, propagation: no energy gain (at most 1e-4 J) and no explosion at any step, but no
-/// position correction either, so the column sinks into the ground by what the steps let
-/// through, growing with the step: 2.9 mm at 1/240 s, 4.9 mm at 1/60, 2.0 cm at 1/30 and
-/// 3.9 cm at 1/15 (pinned within 20%). Substeps change nothing (it resolves once per step).
+/// Case 14, propagation: no energy gain (at most 1e-4 J) and no explosion at any step. A box
+/// of the column meets its support on four corners at one time of impact, and those corners
+/// are one impact event solved as a block, so the column takes gravity's approach each step
+/// without rattling: it sinks 0.24 mm at every step size (pinned below 0.3 mm). Before
+/// impacts at one time were grouped, each corner was an isolated impact and the column sank
+/// by what the steps let through: 2.9 mm at 1/240 s, 4.9 mm at 1/60, 2.0 cm at 1/30, 3.9 cm at
+/// 1/15. Substeps change nothing (it resolves once per step).
 #[test]
 fn step_sweep_propagation() {
     let all = run_sweep(SolverMethod::Propagation);
@@ -224,13 +227,7 @@ fn step_sweep_propagation() {
     for (hz, n, s) in all {
         let what = format!("{hz} Hz x {n}: {s:?}");
         assert!(s.gain <= 1e-4 && s.rise <= 1e-4, "{what}");
-        let expected = match hz as u32 {
-            240 => 0.0029,
-            60 => 0.0049,
-            30 => 0.020,
-            _ => 0.039,
-        };
-        assert!((s.depth - expected).abs() <= 0.2 * expected, "{what}");
+        assert!(s.depth <= 3e-4, "{what}");
     }
 }
 

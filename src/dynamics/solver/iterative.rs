@@ -371,7 +371,8 @@ pub struct ManifoldSolve {
 /// tolerance: a cube resting on two others (in a pyramid) otherwise takes its whole load on
 /// whichever support is solved first, rocks, and, frictionless, pushes its supports apart (a
 /// pyramid of base 10 spread 0.8 m in 20 s that way; 4.8 cm solved together). A block with a
-/// [`Support`] holds that body fixed: its terms are left out of `A` and it takes no impulse.
+/// [`Support`] holds that body by [`Block::hold`]: its terms in `A` and its response to the
+/// block's impulses are scaled by `1 - hold` (left out entirely when it is held wholly).
 /// With [`Block::load`] set, `K_mean` is replaced by `min(K_mean, 1 / load)`, so the manifold
 /// sinks by `g / (2 pi f)^2` under the load it carries.
 pub fn manifold_sweep(
@@ -463,14 +464,25 @@ pub enum Support {
     B,
 }
 
-/// One manifold of the hybrid method's resting solve: its contacts, its support, and the mass
-/// it carries.
+/// One manifold of the hybrid method's resting solve: its contacts, its support, how firmly
+/// that support is held, and the mass it carries.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Block {
     /// The manifold's range in the contact slice.
     pub range: Range<usize>,
-    /// The body held fixed while the block is solved.
+    /// The body held (wholly or partly) while the block is solved.
     pub support: Support,
+    /// The fraction of the support's response to this block's impulse that the support's own
+    /// supports take, in `[0, 1]`: the support responds in the block's solve with its inverse
+    /// mass and inertia scaled by `1 - hold`. 1 for a static or kinematic support and for a body
+    /// resting squarely on supports that are themselves held; 0 for a body free to move along
+    /// the block's normal (see `support_holds` in the solver module).
+    pub hold: f32,
+    /// The support's linear response per unit impulse along the contact normal, in place of
+    /// the normal itself (scaled by its inverse mass): the part of a push that its own supports
+    /// do not take, `n - s P(n)` in `support_holds`' terms. Its component along the normal is
+    /// `1 - hold`. Unused without a support.
+    pub push: Vec3,
     /// The mass this manifold carries, kg: its supported body and that body's share of
     /// everything it carries in turn (see `shock_order` in the solver module). 0 for a manifold
     /// with no support, whose stiffness is then set by its own effective mass.
@@ -492,29 +504,66 @@ impl Block {
     pub fn upper(&self, contacts: &[ContactConstraint]) -> Option<usize> {
         self.pair(contacts).map(|(upper, _)| upper)
     }
+
+    /// How each body responds to the block's impulse along `normal`: per body, its linear
+    /// direction (the normal for a free body, [`Block::push`] for the support) and the factor on
+    /// its angular response (1 for a free body, `1 - hold` for the support).
+    pub fn response(&self, normal: Vec3) -> Response {
+        let held = Side {
+            direction: self.push,
+            along_normal: normal.dot(self.push),
+            angular: 1.0 - self.hold.clamp(0.0, 1.0),
+        };
+        let free = Side {
+            direction: normal,
+            along_normal: 1.0,
+            angular: 1.0,
+        };
+        let (a, b) = match self.support {
+            Support::Neither => (free, free),
+            Support::A => (held, free),
+            Support::B => (free, held),
+        };
+        Response { a, b }
+    }
 }
 
-/// Applies `+impulse n` to B and `-impulse n` to A, leaving the support alone.
+/// How one body of a block responds to the block's impulse.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Side {
+    /// Direction of its velocity change per unit impulse, before its inverse mass.
+    pub direction: Vec3,
+    /// `direction . n`: 1 for a free body (exactly), `1 - hold` for a held support.
+    pub along_normal: f32,
+    /// Factor on its angular response.
+    pub angular: f32,
+}
+
+/// How the two bodies of a block respond to its impulse (see [`Block::response`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Response {
+    /// Body A.
+    pub a: Side,
+    /// Body B.
+    pub b: Side,
+}
+
+/// Applies `+impulse` to B and `-impulse` to A along each body's response direction, with its
+/// angular response scaled by its factor.
 #[inline]
-fn apply_with_support(
-    c: &ContactConstraint,
-    bodies: &mut [SolverBody],
-    impulse: f32,
-    support: Support,
-) {
+fn apply_response(c: &ContactConstraint, bodies: &mut [SolverBody], impulse: f32, r: &Response) {
     let (a, b) = super::body::pair_mut(bodies, c.body_a, c.body_b);
-    let p = impulse * c.normal;
-    if support != Support::A {
-        a.linear_velocity -= a.inverse_mass * p;
-        if c.angular {
-            a.angular_velocity -= impulse * c.ang_a;
-        }
+    if r.a.direction != Vec3::ZERO {
+        a.linear_velocity -= a.inverse_mass * (impulse * r.a.direction);
     }
-    if support != Support::B {
-        b.linear_velocity += b.inverse_mass * p;
-        if c.angular {
-            b.angular_velocity += impulse * c.ang_b;
-        }
+    if c.angular && r.a.angular > 0.0 {
+        a.angular_velocity -= (r.a.angular * impulse) * c.ang_a;
+    }
+    if r.b.direction != Vec3::ZERO {
+        b.linear_velocity += b.inverse_mass * (impulse * r.b.direction);
+    }
+    if c.angular && r.b.angular > 0.0 {
+        b.angular_velocity += (r.b.angular * impulse) * c.ang_b;
     }
 }
 
@@ -527,28 +576,16 @@ fn solve_block(
     solve: &ManifoldSolve,
     rows: &mut Vec<BlockRow>,
 ) -> (bool, f32, bool) {
-    let support = block.support;
-    // The support is held fixed: it adds no terms.
-    let (side_a, side_b) = (support != Support::A, support != Support::B);
-    let linear = if side_a {
-        bodies[group[0].body_a].inverse_mass
-    } else {
-        0.0
-    } + if side_b {
-        bodies[group[0].body_b].inverse_mass
-    } else {
-        0.0
-    };
-    // `K_ii` of row `c` with the support fixed.
+    // The support responds along its free direction, its rotation scaled by `1 - hold`.
+    let response = block.response(group[0].normal);
+    let (fa, fb) = (response.a.angular, response.b.angular);
+    let linear = response.a.along_normal * bodies[group[0].body_a].inverse_mass
+        + response.b.along_normal * bodies[group[0].body_b].inverse_mass;
+    // `K_ii` of row `c` with the support's response scaled.
     let diagonal = |c: &ContactConstraint| {
         let mut k = linear;
         if c.angular {
-            if side_a {
-                k += c.rn_a.dot(c.ang_a);
-            }
-            if side_b {
-                k += c.rn_b.dot(c.ang_b);
-            }
+            k += fa * c.rn_a.dot(c.ang_a) + fb * c.rn_b.dot(c.ang_b);
         }
         k
     };
@@ -595,13 +632,7 @@ fn solve_block(
     let coupling = match (solve.soft, count) {
         (Some(soft), n) if n > 0 => {
             let n = n as f32;
-            let mut sum = n * n * linear;
-            if side_a {
-                sum += rn_a.dot(ang_a);
-            }
-            if side_b {
-                sum += rn_b.dot(ang_b);
-            }
+            let sum = n * n * linear + fa * rn_a.dot(ang_a) + fb * rn_b.dot(ang_b);
             let mut k = sum / (n * n);
             if block.load > 0.0 {
                 k = k.min(1.0 / block.load);
@@ -636,7 +667,7 @@ fn solve_block(
             let delta = new - c.normal_impulse;
             if delta != 0.0 {
                 c.normal_impulse = new;
-                apply_with_support(c, bodies, delta, support);
+                apply_response(c, bodies, delta, &response);
                 if soft {
                     total += delta;
                 }
@@ -749,6 +780,8 @@ mod tests {
         let blocks = [Block {
             range: 0..contacts.len(),
             support: Support::Neither,
+            hold: 0.0,
+            push: Vec3::ZERO,
             load: 0.0,
         }];
         manifold_sweep(
