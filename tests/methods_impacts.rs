@@ -328,16 +328,17 @@ fn box_flat_sequential_impulses_spin_until_converged() {
     assert_in("SI 1 iteration e=0.5 spin", w.length(), 0.90, 1.00);
 }
 
-/// Case 9: the soft step's restitution pass is a single Gauss-Seidel pass over the corners
-/// (as in Box2D v3), so for e = 1 the box rises at 0.74 m/s spinning at 0.63 rad/s (pinned
-/// within 0.02), 26% of the energy lost; for e = 0 it comes to rest (|v| below 1e-3 m/s
+/// Case 9: the soft step's restitution pass is repeated until the corners agree (Box2D v3
+/// makes a single Gauss-Seidel pass, which left the box rising at 0.74 m/s for e = 1 and
+/// spinning at 0.63 rad/s, 26% of the energy lost), so for e = 1 the box rises at 1 m/s with
+/// no spin (within 1e-4, as the default); for e = 0 it comes to rest (|v| below 1e-3 m/s
 /// after 10 steps).
 #[test]
-fn box_flat_soft_step_restitution_pass_spins() {
+fn box_flat_soft_step_restitution_pass_converges() {
     let config = SolverConfig::for_method(SolverMethod::SoftStep);
     let (v, w, _, _) = flat_box(1.0, config.clone());
-    assert_in("soft e=1 rebound", v.y, 0.72, 0.76);
-    assert_in("soft e=1 spin", w.length(), 0.61, 0.65);
+    assert!((v - Vec3::Y).length() <= 1e-4, "soft e=1 rebound {v}");
+    assert!(w.length() <= 1e-4, "soft e=1 spin {w}");
     let mut app = app_with(60.0, config);
     let (_, b) = scenes::box_landing_flat(app.world_mut(), 0.0);
     scenes::run_steps(&mut app, 10);

@@ -303,7 +303,13 @@ pub fn step(
                 dt,
                 &mut stats,
             );
-            apply_restitution(bodies, contacts, config.restitution_threshold);
+            apply_restitution(
+                bodies,
+                contacts,
+                config.restitution_threshold,
+                config.max_block_iterations,
+                config.velocity_tolerance,
+            );
         }
         SolverMethod::Propagation => {
             integrate_velocities(bodies, gravity, dt);
@@ -716,8 +722,8 @@ fn cone_projection(n: Vec3, generators: &[Vec3]) -> (Vec3, u32) {
                     consider(x * gi + y * gj, (1 << i) | (1 << j), &mut best);
                 }
             }
-            for l in j + 1..k {
-                let m = Mat3::from_cols(gi, gj, generators[l]);
+            for (l, &gl) in generators.iter().enumerate().take(k).skip(j + 1) {
+                let m = Mat3::from_cols(gi, gj, gl);
                 let det = m.determinant();
                 if det.abs() > 1e-9 {
                     let w = m.inverse() * n;
