@@ -129,39 +129,36 @@ fn resting_box_propagation_hops() {
     );
 }
 
-/// Case 11 at a large step, 15 Hz: gravity now gives 0.654 m/s of approach per step, above the
-/// 0.5 m/s restitution threshold, so methods that take the restitution target from the
-/// velocity before the solve see an impact every step. Sequential impulses and Jacobi hop:
-/// with e = 0.5 up to 25 cm (pinned in [15, 35] cm), with e = 1 the hops grow without bound,
-/// each landing gaining `g dt` of speed, to over 30 m within 60 s (pinned: above 10 m). With
-/// e = 0 they rest. The default and the soft step stay put: at most 1e-3 m/s after 1 s and no
-/// hop, sinking by the soft sink at the capped stiffness, `g / (2 pi 15)^2` = 1.10 mm (the
-/// hertz is capped at a quarter of the 60 Hz substep rate), within 3%.
+/// Case 11 at a large step, 15 Hz: gravity gives 0.654 m/s of approach per step, above the
+/// 0.5 m/s restitution threshold. No method takes that for an impact: the hybrid resolves
+/// impacts before gravity acts, and the others take restitution targets from the approach at
+/// preparation, before the step's gravity. So every method stays put for e in {0, 0.5, 1}: at
+/// most 1e-3 m/s after 1 s and no hop (1e-6 m: rounding). The default and the soft step sink by
+/// the soft sink at the capped stiffness, `g / (2 pi 15)^2` = 1.10 mm (the hertz is capped at a
+/// quarter of the 60 Hz substep rate), within 3%. (When sequential impulses and Jacobi took the
+/// target from the velocity after gravity, they hopped: 25 cm with e = 0.5, and with e = 1
+/// the hops grew past 30 m within 60 s.)
 #[test]
-fn resting_box_large_step_hops_for_sequential_impulses_and_jacobi() {
+fn resting_box_large_step_never_hops() {
     let sink = G * compliance(15.0);
-    for method in [SolverMethod::Hybrid, SolverMethod::SoftStep] {
+    for method in SolverMethod::ALL {
+        if method == SolverMethod::Propagation {
+            continue; // no position correction and no threshold: see resting_box_propagation_hops
+        }
         for e in [0.0, 0.5, 1.0] {
             let (vmax, ymax, _, y) = resting_box(15.0, SolverConfig::for_method(method), e, 60.0);
             assert!(
                 vmax < 1e-3 && ymax <= 0.5 + 1e-6,
                 "{method:?} e={e}: {vmax} {ymax}"
             );
-            assert!(
-                ((0.5 - y) - sink).abs() <= 0.03 * sink,
-                "{method:?} e={e}: {}",
-                0.5 - y
-            );
+            if matches!(method, SolverMethod::Hybrid | SolverMethod::SoftStep) {
+                assert!(
+                    ((0.5 - y) - sink).abs() <= 0.03 * sink,
+                    "{method:?} e={e}: {}",
+                    0.5 - y
+                );
+            }
         }
-    }
-    for method in [SolverMethod::SequentialImpulses, SolverMethod::Jacobi] {
-        let config = SolverConfig::for_method(method);
-        let (vmax, _, _, _) = resting_box(15.0, config.clone(), 0.0, 60.0);
-        assert!(vmax < 1e-3, "{method:?} e=0 rests: {vmax}");
-        let (_, ymax, _, _) = resting_box(15.0, config.clone(), 0.5, 60.0);
-        assert_in(&format!("{method:?} e=0.5 hop"), ymax - 0.5, 0.15, 0.35);
-        let (_, ymax, _, _) = resting_box(15.0, config, 1.0, 60.0);
-        assert!(ymax - 0.5 > 10.0, "{method:?} e=1 hops grow: {ymax}");
     }
 }
 

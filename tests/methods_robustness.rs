@@ -232,9 +232,9 @@ fn step_sweep_propagation() {
 }
 
 /// Case 14, sequential impulses: exact rest (sinking below 0.2 mm) and no energy gain beyond
-/// 1e-4 J, except at the largest step with one substep (1/15 s x 1), where gravity's 0.67 m/s
-/// per step is taken as an impact and the e = 0.8 ball gains 1.36 J, rising 0.37 m above its
-/// start (pinned: gain in [1, 1.8] J, rise in [0.3, 0.45] m). Still no NaN and no tunnelling.
+/// 1e-4 J at any step. Restitution targets come from the approach at preparation, before the
+/// step's gravity, so at 1/15 s x 1 gravity's 0.65 m/s per step is no longer taken as an
+/// impact (it was: the e = 0.8 ball gained 1.36 J and rose 0.37 m). No NaN, no tunnelling.
 #[test]
 fn step_sweep_sequential_impulses() {
     let all = run_sweep(SolverMethod::SequentialImpulses);
@@ -242,20 +242,17 @@ fn step_sweep_sequential_impulses() {
     for (hz, n, s) in all {
         let what = format!("{hz} Hz x {n}: {s:?}");
         assert!(s.depth <= 2e-4, "{what}");
-        if (hz, n) == (15.0, 1) {
-            assert_in("SI 1/15 x 1 gain", s.gain, 1.0, 1.8);
-            assert_in("SI 1/15 x 1 rise", s.rise, 0.3, 0.45);
-        } else {
-            assert!(s.gain <= 1e-4 && s.rise <= 1e-4, "{what}");
-        }
+        assert!(s.gain <= 1e-4 && s.rise <= 1e-4, "{what}");
     }
 }
 
-/// Case 14, Jacobi: like sequential impulses it gains energy when gravity's step exceeds the
-/// restitution threshold with one substep, 1.97 J at 1/15 s (rise 0.37 m; pinned: gain in
-/// [1.5, 2.5] J) and 0.09 J at 1/30 s (pinned in [0.04, 0.15] J), and elsewhere at most 1e-4 J.
-/// Its unconverged column sinks up to 7.2 cm at 1/15 s x 1 (pinned below 8 cm), and the fast
-/// sphere is stopped up to 2.4 cm into the 1 cm wall but never through it.
+/// Case 14, Jacobi: its unconverged column sinks up to 7.2 cm at 1/15 s x 1 (pinned below
+/// 8 cm), and the fast sphere is stopped up to 2.4 cm into the 1 cm wall but never through it.
+/// Energy: no gain beyond 1e-4 J except at 1/30 s x 1, where Baumgarte pushes out the 1.9 cm its
+/// unconverged column sank and the push leaves the cubes 3 mm above their start, 0.09 J: that
+/// is push-out, bounded by the work of lifting the column's weight (30 N) through the depth it
+/// sank, and the rise by that depth. (Before restitution targets were taken before the step's
+/// gravity it also gained 1.97 J at 1/15 s x 1, from gravity's step taken for an impact.)
 #[test]
 fn step_sweep_jacobi() {
     let all = run_sweep(SolverMethod::Jacobi);
@@ -263,10 +260,10 @@ fn step_sweep_jacobi() {
     for (hz, n, s) in all {
         let what = format!("{hz} Hz x {n}: {s:?}");
         assert!(s.depth <= 0.08, "{what}");
-        match (hz as u32, n) {
-            (15, 1) => assert_in("Jacobi 1/15 x 1 gain", s.gain, 1.5, 2.5),
-            (30, 1) => assert_in("Jacobi 1/30 x 1 gain", s.gain, 0.04, 0.15),
-            _ => assert!(s.gain <= 1e-4 && s.rise <= 1e-4, "{what}"),
+        if s.depth > 0.01 {
+            assert!(s.gain <= 30.0 * s.depth && s.rise <= s.depth, "{what}");
+        } else {
+            assert!(s.gain <= 1e-4 && s.rise <= 1e-4, "{what}");
         }
     }
 }
