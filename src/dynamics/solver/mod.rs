@@ -548,7 +548,7 @@ fn in_block_order(
 }
 
 /// A touching manifold that supports a body, as [`support_holds`] sees it from that body.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 struct SupportEntry {
     /// Unit normal from the support to the supported body.
     normal: Vec3,
@@ -556,6 +556,11 @@ struct SupportEntry {
     /// `m` the supported body's mass and `K` the support's remaining inverse effective mass
     /// along the manifold (0 for a static or kinematic support, so 1).
     strength: f32,
+    /// Its first touching points (world frame), for the tipping test; a manifold's points
+    /// beyond these (duplicates of a face's corners) add nothing to its footprint's hull.
+    footprint: [Vec3; 4],
+    /// How many of `footprint` are set.
+    points: u8,
 }
 
 /// Most support manifolds of one body that [`support_holds`] looks at; a body resting on more
@@ -596,9 +601,20 @@ const MAX_SUPPORTS: usize = 8;
 /// never adds energy; over-estimating it is what added energy.
 fn support_holds(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: &mut [Block]) {
     use crate::collision::narrow_phase::TOUCH_DISTANCE;
-    let mut supports: Vec<Vec<SupportEntry>> = vec![Vec::new(); bodies.len()];
-    // Touching support points of each body, world frame (for the tipping test).
-    let mut footprint: Vec<Vec<Vec3>> = vec![Vec::new(); bodies.len()];
+    let touching = |c: &ContactConstraint| c.separation <= TOUCH_DISTANCE && c.normal_mass > 0.0;
+    // The support entries of each body, in one buffer: body `i` has at most `room[i]` of them,
+    // at `start[i]..start[i] + count[i]`.
+    let mut start = vec![0u32; bodies.len() + 1];
+    for block in blocks.iter() {
+        if let Some(upper) = block.upper(contacts) {
+            start[upper + 1] = (start[upper + 1] + 1).min(MAX_SUPPORTS as u32);
+        }
+    }
+    for i in 0..bodies.len() {
+        start[i + 1] += start[i];
+    }
+    let mut count = vec![0u32; bodies.len()];
+    let mut entries = vec![SupportEntry::default(); start[bodies.len()] as usize];
     for block in blocks.iter_mut() {
         let Some((upper, lower)) = block.pair(contacts) else {
             continue;
@@ -610,16 +626,14 @@ fn support_holds(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: 
             -1.0
         };
         let normal = sign * rows[0].normal;
-        let touching: Vec<&ContactConstraint> = rows
-            .iter()
-            .filter(|c| c.separation <= TOUCH_DISTANCE && c.normal_mass > 0.0)
-            .collect();
         let support_body = &bodies[lower];
         let lower_fixed = support_body.motion != Motion::Dynamic;
         let (hold, push) = if lower_fixed {
             (1.0, Vec3::ZERO)
         } else {
             let centroid = rows.iter().map(|c| c.point).sum::<Vec3>() / rows.len() as f32;
+            // The block's rows have a lever arm on the support (relative 1e-7 of its inverse
+            // mass is f32 rounding of `r x n` for `r` along `n`, as in `prepare_normal_row`).
             let turns = rows.iter().any(|c| {
                 c.angular && {
                     let (rn, ang) = if block.support == Support::A {
@@ -627,31 +641,50 @@ fn support_holds(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: 
                     } else {
                         (c.rn_b, c.ang_b)
                     };
-                    rn.dot(ang) > 0.0
+                    rn.dot(ang) > 1e-7 * support_body.inverse_mass
                 }
             });
-            hold_of(&supports[lower], &footprint[lower], normal, centroid, turns)
+            let first = start[lower] as usize;
+            let below = &entries[first..first + count[lower] as usize];
+            hold_of(below, normal, centroid, turns)
         };
         block.hold = hold;
         // `push` is along `normal` (support to supported); the block's rows use the contact
         // normal, which is `sign * normal`.
         block.push = sign * push;
         // This manifold, if touching, supports `upper`.
-        if touching.is_empty() || supports[upper].len() >= MAX_SUPPORTS {
+        let room = start[upper + 1] - start[upper];
+        if count[upper] >= room {
             continue;
         }
-        let strength = if lower_fixed {
+        let mut entry = SupportEntry {
+            normal,
+            ..SupportEntry::default()
+        };
+        let mut centroid = Vec3::ZERO;
+        let mut points = 0usize;
+        for c in rows.iter().filter(|c| touching(c)) {
+            centroid += c.point;
+            if points < entry.footprint.len() {
+                entry.footprint[points] = c.point;
+            }
+            points += 1;
+        }
+        if points == 0 {
+            continue;
+        }
+        entry.points = points.min(entry.footprint.len()) as u8;
+        entry.strength = if lower_fixed {
             1.0
         } else {
-            let centroid = touching.iter().map(|c| c.point).sum::<Vec3>() / touching.len() as f32;
-            let r = centroid - support_body.position;
+            let r = centroid / points as f32 - support_body.position;
             let rn = r.cross(normal);
             let k_lower = support_body.inverse_mass + rn.dot(support_body.inverse_inertia * rn);
             let m_upper = 1.0 / bodies[upper].inverse_mass.max(f32::MIN_POSITIVE);
             1.0 / (1.0 + m_upper * (1.0 - block.hold) * k_lower)
         };
-        supports[upper].push(SupportEntry { normal, strength });
-        footprint[upper].extend(touching.iter().map(|c| c.point));
+        entries[(start[upper] + count[upper]) as usize] = entry;
+        count[upper] += 1;
     }
 }
 
@@ -659,13 +692,7 @@ fn support_holds(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: 
 /// through `point` (see [`support_holds`]), and the support's free response direction
 /// `n - s P(n)` (whose component along `n` is `1 - hold`); `turns`: the push has a lever arm
 /// on the support.
-fn hold_of(
-    entries: &[SupportEntry],
-    footprint: &[Vec3],
-    n: Vec3,
-    point: Vec3,
-    turns: bool,
-) -> (f32, Vec3) {
+fn hold_of(entries: &[SupportEntry], n: Vec3, point: Vec3, turns: bool) -> (f32, Vec3) {
     if entries.is_empty() {
         return (0.0, n);
     }
@@ -675,6 +702,9 @@ fn hold_of(
             .map(|e| e.normal)
             .sum::<Vec3>()
             .normalize_or_zero();
+        let footprint = entries
+            .iter()
+            .flat_map(|e| e.footprint[..e.points as usize].iter().copied());
         if axis == Vec3::ZERO || !line_meets_footprint(footprint, point, n, axis) {
             return (0.0, n);
         }
@@ -693,18 +723,33 @@ fn hold_of(
 
 /// Whether the line through `point` along `n` crosses the convex hull of `footprint`, all
 /// projected on the plane normal to `axis`: the hull is covered by the triangles of its points,
-/// so the test is "inside some triangle" (at most `MAX_SUPPORTS` manifolds of a few points).
-fn line_meets_footprint(footprint: &[Vec3], point: Vec3, n: Vec3, axis: Vec3) -> bool {
+/// so the test is "inside some triangle" (at most `MAX_SUPPORTS` manifolds of 4 points).
+fn line_meets_footprint(
+    footprint: impl Iterator<Item = Vec3>,
+    point: Vec3,
+    n: Vec3,
+    axis: Vec3,
+) -> bool {
     let along = n.dot(axis);
     if along.abs() < 1e-6 {
         return false;
     }
     let (u, v) = axis.any_orthonormal_pair();
     let flat = |p: Vec3| Vec2::new(p.dot(u), p.dot(v));
+    let mut buffer = [Vec2::ZERO; 4 * MAX_SUPPORTS];
+    let mut len = 0;
+    let mut height = 0.0f32;
+    for p in footprint.take(buffer.len()) {
+        buffer[len] = flat(p);
+        height += p.dot(axis);
+        len += 1;
+    }
+    if len == 0 {
+        return false;
+    }
+    let pts = &buffer[..len];
     // Where the line crosses the plane of the footprint's mean height along `axis`.
-    let height = footprint.iter().map(|p| p.dot(axis)).sum::<f32>() / footprint.len() as f32;
-    let hit = flat(point + n * ((height - point.dot(axis)) / along));
-    let pts: Vec<Vec2> = footprint.iter().map(|&p| flat(p)).collect();
+    let hit = flat(point + n * ((height / len as f32 - point.dot(axis)) / along));
     let cross = |o: Vec2, a: Vec2, b: Vec2| (a - o).perp_dot(b - o);
     for i in 0..pts.len() {
         for j in i + 1..pts.len() {
@@ -1030,5 +1075,73 @@ mod tests {
             .collect();
         assert_eq!(tops.len(), 2);
         assert_eq!(tops[1], tops[0] + 1);
+    }
+    /// The projection onto a cone: a vector inside the cone of three generators is its own
+    /// projection; outside a single generator's ray it is `(n . g) g`; between two generators
+    /// (outside their plane) it lies on their face; opposite every generator it is zero.
+    #[test]
+    fn cone_projection_cases() {
+        let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+        let n = Vec3::new(1.0, 2.0, 3.0).normalize();
+        let (p, used) = cone_projection(n, &[x, y, z]);
+        assert!((p - n).length() < 1e-6 && used == 0b111);
+        let n = Vec3::new(0.6, 0.8, 0.0);
+        let (p, used) = cone_projection(n, &[y]);
+        assert!((p - 0.8 * y).length() < 1e-6 && used == 1);
+        // Between x and y, with a z part: the face's projection drops the z part.
+        let n = Vec3::new(0.48, 0.64, 0.6);
+        let (p, used) = cone_projection(n, &[x, y]);
+        assert!((p - Vec3::new(0.48, 0.64, 0.0)).length() < 1e-6 && used == 0b11);
+        let (p, used) = cone_projection(-y, &[y, x]);
+        assert_eq!((p, used), (Vec3::ZERO, 0));
+    }
+
+    /// A ball of 1 kg on static ground, struck from above along `n` at angle `theta` from the
+    /// vertical: its hold is `cos^2 theta` and it is free to move along `n - cos theta y` (the
+    /// projection of `n` across the ground normal), exactly the frictionless rigid answer. A
+    /// ball on another ball that rests squarely on the ground (a column of two) is held wholly
+    /// along the vertical, and a ball with nothing below it (touching only speculatively) not
+    /// at all.
+    #[test]
+    fn holds_follow_the_support_cone() {
+        let ball = |y: f32| {
+            SolverBody::new(Motion::Dynamic, Vec3::new(0.0, y, 0.0), Quat::IDENTITY).with_mass(
+                1.0,
+                Mat3::from_diagonal(Vec3::splat(10.0)),
+                true,
+                BVec3::FALSE,
+            )
+        };
+        let theta = 0.9f32;
+        let n = Vec3::new(theta.sin(), theta.cos(), 0.0);
+        let bodies = [
+            SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+            ball(0.5),
+            ball(0.5 + 1.0),
+        ];
+        let floor = ContactConstraint::new(0, 1, Vec3::ZERO, Vec3::Y, 0.0, 0.0, 0.0);
+        let hit =
+            ContactConstraint::new(1, 2, Vec3::new(0.0, 0.5, 0.0) + 0.5 * n, n, 0.0, 0.0, 0.0);
+        let mut contacts = [floor, hit];
+        prepare_contacts(&bodies, &mut contacts);
+        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2]);
+        let struck = blocks.iter().find(|b| b.range == (1..2)).unwrap();
+        let c2 = theta.cos().powi(2);
+        assert!((struck.hold - c2).abs() < 1e-6, "{}", struck.hold);
+        assert!((struck.push - (n - theta.cos() * Vec3::Y)).length() < 1e-6);
+        // A column of two: held wholly.
+        let column = ContactConstraint::new(1, 2, Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 0.0, 0.0, 0.0);
+        let mut contacts = [floor, column];
+        prepare_contacts(&bodies, &mut contacts);
+        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2]);
+        let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
+        assert!((top.hold - 1.0).abs() < 1e-6 && top.push.length() < 1e-6);
+        // The lower ball only speculatively on the ground (a 1 cm gap): not held.
+        let gap = ContactConstraint::new(0, 1, Vec3::ZERO, Vec3::Y, 0.01, 0.0, 0.0);
+        let mut contacts = [gap, column];
+        prepare_contacts(&bodies, &mut contacts);
+        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2]);
+        let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
+        assert_eq!(top.hold, 0.0);
     }
 }
