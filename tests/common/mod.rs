@@ -103,3 +103,55 @@ pub fn capture_logs() {
 pub fn take_logs() -> Vec<(log::Level, String)> {
     LOGS.with(|logs| std::mem::take(&mut *logs.borrow_mut()))
 }
+
+/// Mechanical state of a dynamic body, read from its components in f64.
+#[derive(Clone, Copy, Debug)]
+pub struct BodyState {
+    /// kg.
+    pub mass: f64,
+    /// Centre of mass, world frame, m: `translation + rotation * local_center_of_mass`.
+    pub center: bevy::math::DVec3,
+    /// m/s.
+    pub velocity: bevy::math::DVec3,
+    /// Linear kinetic energy plus rotational kinetic energy `w.I_world w / 2`, J.
+    pub kinetic: f64,
+    /// `|I_world w|`, kg m^2/s.
+    pub spin_momentum: f64,
+}
+
+/// The mechanical state of dynamic `entity` from `ComputedMass`, `Transform` and velocities.
+/// The rotational energy is evaluated in the body frame, `w_b.I_b w_b / 2` with
+/// `w_b = R^T w`, in f64, so that the reading itself adds only the f32 rounding of the stored
+/// state.
+pub fn body_state(app: &App, entity: Entity) -> BodyState {
+    let world = app.world();
+    let computed = world.get::<ComputedMass>(entity).unwrap();
+    let transform = world.get::<Transform>(entity).unwrap();
+    let (v, w) = (
+        world.get::<LinearVelocity>(entity).unwrap().0,
+        world.get::<AngularVelocity>(entity).unwrap().0,
+    );
+    state_of(computed, transform.translation, transform.rotation, v, w)
+}
+
+/// [`body_state`] from explicit values (for a body whose `ComputedMass` is not yet derived).
+pub fn state_of(
+    computed: &ComputedMass,
+    translation: Vec3,
+    rotation: Quat,
+    v: Vec3,
+    w: Vec3,
+) -> BodyState {
+    let q = rotation.as_dquat().normalize();
+    let mass = 1.0 / computed.inverse_mass as f64;
+    let inertia = computed.local_inverse_inertia.as_dmat3().inverse();
+    let local_w = q.inverse() * w.as_dvec3();
+    let velocity = v.as_dvec3();
+    BodyState {
+        mass,
+        center: translation.as_dvec3() + q * computed.local_center_of_mass.as_dvec3(),
+        velocity,
+        kinetic: 0.5 * mass * velocity.length_squared() + 0.5 * local_w.dot(inertia * local_w),
+        spin_momentum: (inertia * local_w).length(),
+    }
+}

@@ -1,0 +1,675 @@
+//! The stress family of issue 8 (`impact3d::scenes`), under every solver method: piles poured
+//! into a walled box, walls and pyramids of boxes, columns, boxes on a trimesh, and the issue's
+//! small cases (light against heavy, the symmetric three-ball hit).
+//!
+//! For each scene and method, every step: no body faster than the scene's largest free-fall
+//! speed plus a margin (see [`speed_limit`]); no body's centre outside the container (or below
+//! the floor); no body quarantined; and under the default method, `SolverStats::
+//! propagation_bound_hit` never set. Sleeping is off (the solver alone) except in the
+//! `*_sleeping` scenes, the stability scenes with the default `SleepConfig`.
+//!
+//! Each (scene, method) is one test function (`scene::method`), so each can fail and be
+//! ignored on its own. The default `cargo test` runs a short version of each scene
+//! ([`Case::short`] steps at 60 Hz); `long_*` (ignored) run every scene for its full duration:
+//! `cargo test --release --test stress -- --ignored`.
+//!
+//! Then the stability targets of the default method (`Hybrid`): the base-20 wall and the
+//! 20-cube column with friction hold awake, the frictionless 1000:1 pair holds, light against
+//! heavy keeps its energy, and the symmetric three-ball hit gives the symmetric answer.
+
+mod common;
+
+use bevy::prelude::*;
+use common::*;
+use impact3d::prelude::*;
+use impact3d::scenes::{self, Pour, PourBodies, Spawned};
+
+/// Standard gravity of the scenes, m/s^2.
+const G: f32 = 9.81;
+
+/// A stress scene: how it is built and for how long it runs.
+struct Case {
+    name: &'static str,
+    build: fn(&mut World) -> Spawned,
+    /// Steps at 60 Hz in the default `cargo test` (debug build).
+    short: u32,
+    /// Steps at 60 Hz of the full version (ignored tests, release).
+    long: u32,
+    /// Sleeping on (the default `SleepConfig`) instead of off.
+    sleeping: bool,
+}
+
+/// A pour of issue 8's walled box (21 m x 21 m, bodies of size 0.5 m).
+fn walled(
+    world: &mut World,
+    count: usize,
+    bodies: PourBodies,
+    density: f32,
+    friction: f32,
+) -> Spawned {
+    scenes::pour_into(world, &Pour::walled_box(count, bodies, density, friction))
+}
+
+/// A structure standing on the ground: bodies must stay within `reach` m of the axis.
+fn standing(bodies: Vec<Entity>, reach: f32, top: f32) -> Spawned {
+    Spawned {
+        bodies,
+        half_width: reach,
+        top,
+        floor: true,
+    }
+}
+
+/// Bodies in free space (no gravity): nothing to stay in, speeds bounded by the initial ones.
+fn floating(bodies: Vec<Entity>) -> Spawned {
+    Spawned {
+        bodies,
+        half_width: f32::INFINITY,
+        top: 0.0,
+        floor: false,
+    }
+}
+
+fn spheres_1000_friction(w: &mut World) -> Spawned {
+    walled(w, 1000, PourBodies::Spheres, 1.0, 0.5)
+}
+fn spheres_1000_frictionless(w: &mut World) -> Spawned {
+    walled(w, 1000, PourBodies::Spheres, 1.0, 0.0)
+}
+fn spheres_1000_dense_friction(w: &mut World) -> Spawned {
+    walled(w, 1000, PourBodies::Spheres, 1000.0, 0.5)
+}
+fn spheres_1000_dense_frictionless(w: &mut World) -> Spawned {
+    walled(w, 1000, PourBodies::Spheres, 1000.0, 0.0)
+}
+fn spheres_4000_friction(w: &mut World) -> Spawned {
+    walled(w, 4000, PourBodies::Spheres, 1.0, 0.5)
+}
+fn spheres_4000_frictionless(w: &mut World) -> Spawned {
+    walled(w, 4000, PourBodies::Spheres, 1000.0, 0.0)
+}
+fn boxes_1000_friction(w: &mut World) -> Spawned {
+    walled(w, 1000, PourBodies::Boxes, 1.0, 0.5)
+}
+fn boxes_1000_frictionless(w: &mut World) -> Spawned {
+    walled(w, 1000, PourBodies::Boxes, 1000.0, 0.0)
+}
+fn mixed_1000_friction(w: &mut World) -> Spawned {
+    walled(w, 1000, PourBodies::Mixed, 1000.0, 0.5)
+}
+fn wall_base20(w: &mut World) -> Spawned {
+    // A toppling wall reaches at most its height (20 m) beyond its half base (10.5 m).
+    standing(scenes::pyramid_with(w, 20, false, 0.5), 31.0, 19.5)
+}
+fn pyramid3d_base8(w: &mut World) -> Spawned {
+    standing(scenes::pyramid_with(w, 8, true, 0.5), 13.0, 7.5)
+}
+fn column20_friction(w: &mut World) -> Spawned {
+    standing(scenes::column(w, 20, 0.5, 1.0), 21.0, 19.5)
+}
+fn column100_alternating(w: &mut World) -> Spawned {
+    standing(scenes::column(w, 100, 0.0, 1000.0), 101.0, 99.5)
+}
+fn trimesh_boxes(w: &mut World) -> Spawned {
+    scenes::boxes_on_trimesh(w, 200, 0.5)
+}
+fn light_heavy(w: &mut World) -> Spawned {
+    // The light ball rests on the half-space floor; the heavy one floats above it.
+    let (a, b) = scenes::light_against_heavy(w);
+    standing(vec![a, b], f32::INFINITY, 0.0)
+}
+fn three_balls(w: &mut World) -> Spawned {
+    let (a, b, c) = scenes::three_ball_hit(w);
+    floating(vec![a, b, c])
+}
+
+/// Every scene of the family. Short versions (chosen so the file stays near two minutes in the
+/// debug build): the piles for 40-45 steps, past the first layer's landing at step 36, where
+/// the default blows up today (at step 38; issue 8 saw steps 44-57 with another spacing);
+/// the walls and pyramids for 20-30 steps, the columns for 1-2 s, the small cases for the
+/// 1 s that contains their impacts. The long versions are 10-30 s.
+const CASES: &[Case] = &[
+    Case {
+        name: "spheres_1000_friction",
+        build: spheres_1000_friction,
+        short: 45,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "spheres_1000_frictionless",
+        build: spheres_1000_frictionless,
+        short: 45,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "spheres_1000_dense_friction",
+        build: spheres_1000_dense_friction,
+        short: 45,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "spheres_1000_dense_frictionless",
+        build: spheres_1000_dense_frictionless,
+        short: 45,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "spheres_4000_friction",
+        build: spheres_4000_friction,
+        short: 40,
+        long: 1200,
+        sleeping: false,
+    },
+    Case {
+        name: "spheres_4000_frictionless",
+        build: spheres_4000_frictionless,
+        short: 40,
+        long: 1200,
+        sleeping: false,
+    },
+    Case {
+        name: "boxes_1000_friction",
+        build: boxes_1000_friction,
+        short: 45,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "boxes_1000_frictionless",
+        build: boxes_1000_frictionless,
+        short: 45,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "mixed_1000_friction",
+        build: mixed_1000_friction,
+        short: 55,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "wall_base20",
+        build: wall_base20,
+        short: 30,
+        long: 1200,
+        sleeping: false,
+    },
+    Case {
+        name: "wall_base20_sleeping",
+        build: wall_base20,
+        short: 30,
+        long: 1200,
+        sleeping: true,
+    },
+    Case {
+        name: "pyramid3d_base8",
+        build: pyramid3d_base8,
+        short: 20,
+        long: 1200,
+        sleeping: false,
+    },
+    Case {
+        name: "pyramid3d_base8_sleeping",
+        build: pyramid3d_base8,
+        short: 20,
+        long: 1200,
+        sleeping: true,
+    },
+    Case {
+        name: "column20_friction",
+        build: column20_friction,
+        short: 120,
+        long: 1200,
+        sleeping: false,
+    },
+    Case {
+        name: "column20_friction_sleeping",
+        build: column20_friction,
+        short: 120,
+        long: 1200,
+        sleeping: true,
+    },
+    Case {
+        name: "column100_alternating",
+        build: column100_alternating,
+        short: 60,
+        long: 1200,
+        sleeping: false,
+    },
+    Case {
+        name: "column100_alternating_sleeping",
+        build: column100_alternating,
+        short: 60,
+        long: 1200,
+        sleeping: true,
+    },
+    Case {
+        name: "trimesh_boxes",
+        build: trimesh_boxes,
+        short: 45,
+        long: 1800,
+        sleeping: false,
+    },
+    Case {
+        name: "trimesh_boxes_sleeping",
+        build: trimesh_boxes,
+        short: 45,
+        long: 1800,
+        sleeping: true,
+    },
+    Case {
+        name: "light_against_heavy",
+        build: light_heavy,
+        short: 60,
+        long: 600,
+        sleeping: false,
+    },
+    Case {
+        name: "three_ball_hit",
+        build: three_balls,
+        short: 60,
+        long: 600,
+        sleeping: false,
+    },
+];
+
+/// The largest speed a body of the scene may reach, m/s: the free-fall speed from the highest
+/// spawn, `sqrt(2 g top)`, plus the fastest initial speed, plus `max_push_out_speed`.
+///
+/// Why that margin: every scene has e = 0 except the three-ball hit (e = 1, no gravity, where
+/// energy alone bounds every speed by the 1 m/s of the striker), so no body can move faster
+/// than it would falling freely from its spawn height, except by what pushing penetration out
+/// gives it: the soft contacts push out at no more than `max_push_out_speed` (3 m/s) relative
+/// to the body pushed from. The bound is loose on purpose (issue 8's failures are 11 m/s to
+/// 4e18 m/s in a pile whose free fall is 7.6 m/s); what it catches is energy created.
+fn speed_limit(spawned: &Spawned, initial: f32, config: &SolverConfig) -> f32 {
+    (2.0 * G * spawned.top).sqrt() + initial + config.max_push_out_speed
+}
+
+/// What a run of a case found.
+#[derive(Debug, Default)]
+struct Outcome {
+    /// The first violation, if any.
+    failure: Option<String>,
+    /// The largest speed seen, m/s, and the step.
+    fastest: (f32, u32),
+}
+
+/// Runs `case` for `steps` at 60 Hz under `method` with its usual settings.
+fn run(case: &Case, method: SolverMethod, steps: u32) -> Outcome {
+    let mut app = scenes::headless_app(60.0);
+    let config = SolverConfig::for_method(method);
+    app.insert_resource(config.clone());
+    app.insert_resource(SleepConfig {
+        enabled: case.sleeping,
+        ..default()
+    });
+    let spawned = (case.build)(app.world_mut());
+    let initial = spawned
+        .bodies
+        .iter()
+        .map(|&e| {
+            app.world()
+                .get::<LinearVelocity>(e)
+                .map_or(0.0, |v| v.0.length())
+        })
+        .fold(0.0, f32::max);
+    let limit = speed_limit(&spawned, initial, &config);
+    let mut outcome = Outcome::default();
+    for step in 1..=steps {
+        app.update();
+        let stats = *app.world().resource::<SolverStats>();
+        if method == SolverMethod::Hybrid && stats.propagation_bound_hit {
+            outcome.failure = Some(format!(
+                "step {step}: propagation bound hit ({} sweeps, {} contacts)",
+                stats.propagation_sweeps, stats.contacts
+            ));
+            return outcome;
+        }
+        for (i, &e) in spawned.bodies.iter().enumerate() {
+            if let Some(q) = app.world().get::<Quarantined>(e) {
+                outcome.failure = Some(format!("step {step}: body {i} quarantined: {}", q.reason));
+                return outcome;
+            }
+            let (p, v) = (position(&app, e), velocity(&app, e).length());
+            if v > outcome.fastest.0 {
+                outcome.fastest = (v, step);
+            }
+            // A NaN speed fails too.
+            if v.is_nan() || v > limit {
+                outcome.failure = Some(format!(
+                    "step {step}: body {i} at {v:.4} m/s > limit {limit:.2} m/s"
+                ));
+                return outcome;
+            }
+            let outside = p.x.abs().max(p.z.abs());
+            let inside = outside <= spawned.half_width && (p.y > 0.0 || !spawned.floor);
+            if !inside {
+                outcome.failure = Some(format!(
+                    "step {step}: body {i} left the container at {p} (half width {})",
+                    spawned.half_width
+                ));
+                return outcome;
+            }
+        }
+    }
+    outcome
+}
+
+/// The short version of the case named `name` under `method`: fails with the first violation.
+fn short(name: &str, method: SolverMethod) {
+    let case = CASES.iter().find(|c| c.name == name).expect("a case");
+    let outcome = run(case, method, case.short);
+    if let Some(failure) = outcome.failure {
+        panic!(
+            "{name} under {method:?}: {failure} (fastest before: {:.3} m/s at step {})",
+            outcome.fastest.0, outcome.fastest.1
+        );
+    }
+}
+
+/// One test per method of the short version of a case; each method's attributes (an
+/// `#[ignore = "..."]` with the failure's numbers) in its own brackets, in the order hybrid,
+/// propagation, sequential impulses, soft step, Jacobi.
+macro_rules! stress {
+    ($name:ident, [$(#[$h:meta])*], [$(#[$p:meta])*], [$(#[$si:meta])*], [$(#[$ss:meta])*], [$(#[$j:meta])*]) => {
+        mod $name {
+            use super::*;
+            $(#[$h])*
+            #[test]
+            fn hybrid() {
+                short(stringify!($name), SolverMethod::Hybrid);
+            }
+            $(#[$p])*
+            #[test]
+            fn propagation() {
+                short(stringify!($name), SolverMethod::Propagation);
+            }
+            $(#[$si])*
+            #[test]
+            fn sequential_impulses() {
+                short(stringify!($name), SolverMethod::SequentialImpulses);
+            }
+            $(#[$ss])*
+            #[test]
+            fn soft_step() {
+                short(stringify!($name), SolverMethod::SoftStep);
+            }
+            $(#[$j])*
+            #[test]
+            fn jacobi() {
+                short(stringify!($name), SolverMethod::Jacobi);
+            }
+        }
+    };
+}
+
+stress!(
+    spheres_1000_friction,
+    [#[ignore = "fails before the resting-phase fix: step 38, a sphere at 59.6 m/s (limit 12.29 m/s, free fall 6.3 m/s)"]], [], [], [], []
+);
+stress!(
+    spheres_1000_frictionless,
+    [#[ignore = "fails before the resting-phase fix: step 38, a sphere at 58.8 m/s (limit 12.29 m/s, free fall 6.3 m/s)"]], [], [], [], []
+);
+stress!(
+    spheres_1000_dense_friction,
+    [#[ignore = "fails before the resting-phase fix: step 38, a sphere at 59.6 m/s (limit 12.29 m/s, free fall 6.3 m/s)"]], [], [], [], []
+);
+stress!(
+    spheres_1000_dense_frictionless,
+    [#[ignore = "fails before the resting-phase fix: step 38, a sphere at 58.8 m/s (limit 12.29 m/s, free fall 6.3 m/s)"]], [], [], [], []
+);
+stress!(
+    spheres_4000_friction,
+    [#[ignore = "fails before the resting-phase fix: step 38, a sphere at 48.4 m/s (limit 20.27 m/s)"]], [], [], [], []
+);
+stress!(
+    spheres_4000_frictionless,
+    [#[ignore = "fails before the resting-phase fix: step 38, a sphere at 2451 m/s (limit 20.27 m/s)"]], [], [], [], []
+);
+stress!(
+    boxes_1000_friction,
+    [#[ignore = "fails before the resting-phase fix: step 38, a cube at 94.3 m/s (limit 12.29 m/s)"]], [], [], [], []
+);
+stress!(
+    boxes_1000_frictionless,
+    [#[ignore = "fails before the resting-phase fix: step 38, a cube at 97.3 m/s (limit 12.29 m/s)"]], [], [], [], []
+);
+stress!(
+    mixed_1000_friction,
+    [#[ignore = "fails before the resting-phase fix: step 37, propagation bound hit (64 sweeps, 2534 contacts) at the first landing"]], [#[ignore = "fails today: step 53, a body's centre is pushed under the floor (y = -0.048 m): no position correction against 100:1 loads"]], [], [], [#[ignore = "fails today: step 44, a body at 14.5 m/s (limit 12.29 m/s)"]]
+);
+stress!(wall_base20, [], [], [], [], []);
+stress!(wall_base20_sleeping, [], [], [], [], []);
+stress!(pyramid3d_base8, [], [], [], [], []);
+stress!(pyramid3d_base8_sleeping, [], [], [], [], []);
+stress!(column20_friction, [], [], [], [], []);
+stress!(column20_friction_sleeping, [], [], [], [], []);
+stress!(
+    column100_alternating,
+    [#[ignore = "fails before the resting-phase fix: step 52, propagation bound hit (64 sweeps, 708 contacts), 38.4 m/s at step 51"]], [], [], [#[ignore = "fails today: step 43, a cube at 49.7 m/s (limit 47.18 m/s): the column collapses"]], [#[ignore = "fails today: step 25, the bottom 1 kg cube is pushed through the floor (centre at y = -0.017 m)"]]
+);
+stress!(
+    column100_alternating_sleeping,
+    [#[ignore = "fails (sleeping on too) before the resting-phase fix: step 52, propagation bound hit (64 sweeps, 708 contacts), 38.4 m/s at step 51"]], [], [], [#[ignore = "fails (sleeping on too) today: step 43, a cube at 49.7 m/s (limit 47.18 m/s): the column collapses"]], [#[ignore = "fails (sleeping on too) today: step 25, the bottom 1 kg cube is pushed through the floor (centre at y = -0.017 m)"]]
+);
+stress!(
+    trimesh_boxes,
+    [#[ignore = "fails before the resting-phase fix: step 37, propagation bound hit (64 sweeps, 1700 contacts) at the first landing"]], [], [], [], []
+);
+stress!(
+    trimesh_boxes_sleeping,
+    [#[ignore = "fails (sleeping on too) before the resting-phase fix: step 37, propagation bound hit (64 sweeps, 1700 contacts) at the first landing"]], [], [], [], []
+);
+stress!(
+    light_against_heavy,
+    [#[ignore = "fails before the resting-phase fix: step 19, the light ball at 108.9 m/s (limit 8 m/s; it started at 5 m/s)"]], [], [], [], []
+);
+stress!(three_ball_hit, [], [], [], [], []);
+
+/// Every case at its full length under `method`; fails listing every failing case.
+fn long(method: SolverMethod) {
+    let failures: Vec<String> = CASES
+        .iter()
+        .filter_map(|case| {
+            let outcome = run(case, method, case.long);
+            println!(
+                "{} under {method:?}: fastest {:.3} m/s at step {}{}",
+                case.name,
+                outcome.fastest.0,
+                outcome.fastest.1,
+                outcome
+                    .failure
+                    .as_deref()
+                    .map_or(String::new(), |f| format!(": {f}"))
+            );
+            outcome.failure.map(|f| format!("{}: {f}", case.name))
+        })
+        .collect();
+    assert!(failures.is_empty(), "{method:?}:\n{}", failures.join("\n"));
+}
+
+#[test]
+#[ignore = "long: cargo test --release --test stress -- --ignored"]
+fn long_hybrid() {
+    long(SolverMethod::Hybrid);
+}
+
+#[test]
+#[ignore = "long: cargo test --release --test stress -- --ignored"]
+fn long_propagation() {
+    long(SolverMethod::Propagation);
+}
+
+#[test]
+#[ignore = "long: cargo test --release --test stress -- --ignored"]
+fn long_sequential_impulses() {
+    long(SolverMethod::SequentialImpulses);
+}
+
+#[test]
+#[ignore = "long: cargo test --release --test stress -- --ignored"]
+fn long_soft_step() {
+    long(SolverMethod::SoftStep);
+}
+
+#[test]
+#[ignore = "long: cargo test --release --test stress -- --ignored"]
+fn long_jacobi() {
+    long(SolverMethod::Jacobi);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stability targets of the default method.
+// ---------------------------------------------------------------------------------------------
+
+/// A headless app at 60 Hz with the default solver and sleeping off.
+fn awake_default() -> App {
+    let mut app = scenes::headless_app(60.0);
+    app.insert_resource(SleepConfig {
+        enabled: false,
+        ..default()
+    });
+    app
+}
+
+/// Issue 8: awake, friction 0.5, the base-20 wall (210 cubes) holds: its top cube moves less
+/// than 1 cm in 10 s. The 1 cm is the issue's criterion: well above the soft sink of the 20
+/// contacts under the top cube (20 x 0.28 mm = 5.5 mm), far below a collapse (0.22 m).
+#[test]
+#[ignore = "fails before the resting-phase fix: the top cube moves 2.11 m in 10 s (criterion 1 cm); 10 s of 210 cubes, run in release"]
+fn wall_base20_holds_awake() {
+    let mut app = awake_default();
+    let cubes = scenes::pyramid_with(app.world_mut(), 20, false, 0.5);
+    let top = *cubes.last().unwrap();
+    let start = position(&app, top);
+    let mut moved = 0f32;
+    for _ in 0..600 {
+        app.update();
+        moved = moved.max(position(&app, top).distance(start));
+    }
+    assert!(moved < 0.01, "the wall's top cube moved {moved} m in 10 s");
+}
+
+/// Issue 8: awake, friction 0.5, a column of 20 cubes drifts less than 1 mm sideways in 20 s
+/// (the top cube's horizontal displacement; its vertical sink, 20 x 0.28 mm, is not drift).
+/// Friction holds a column against sideways motion, so the 1 mm is only rounding's room.
+#[test]
+#[ignore = "fails before the resting-phase fix: the top cube drifts 7.4 cm sideways in 20 s (criterion 1 mm)"]
+fn column20_friction_holds_awake() {
+    let mut app = awake_default();
+    let cubes = scenes::column(app.world_mut(), 20, 0.5, 1.0);
+    let top = *cubes.last().unwrap();
+    let start = position(&app, top);
+    let mut drift = 0f32;
+    for _ in 0..1200 {
+        app.update();
+        let d = position(&app, top) - start;
+        drift = drift.max(Vec2::new(d.x, d.z).length());
+    }
+    assert!(
+        drift < 1e-3,
+        "the column's top cube drifted {drift} m sideways in 20 s"
+    );
+}
+
+/// Issue 8: the frictionless 1000:1 pair (a 1000 kg cube on a 1 kg cube) holds awake as today:
+/// neither cube moves more than 5 cm (the lab's tolerance for its stability scenes) in 10 s.
+#[test]
+fn heavy_pair_1000_holds_awake() {
+    let mut app = awake_default();
+    let (lower, upper) = scenes::cube_on_cube(app.world_mut(), 1000.0);
+    let start = [position(&app, lower), position(&app, upper)];
+    let mut moved = 0f32;
+    for _ in 0..600 {
+        app.update();
+        for (e, s) in [lower, upper].into_iter().zip(start) {
+            moved = moved.max(position(&app, e).distance(s));
+        }
+    }
+    assert!(moved < 0.05, "the 1000:1 pair moved {moved} m in 10 s");
+}
+
+/// Issue 8: light against heavy keeps its energy: with e = 0 and no gravity the kinetic energy
+/// may only fall from its 0.625 J (1e-5 relative: f32 rounding of the reading).
+///
+/// What it should fall to: the light ball (m = 0.05 kg) meets the heavy one (M = 5 kg) with
+/// the line of centres `n = (0.433, 0.55, 0) / 0.7` (the centres 0.7 m apart, 0.55 m apart in
+/// height) while resting on the floor. Solving the hit and the floor together, inelastically
+/// (impulse `j` along `n` between the balls, `j n_y` from the floor keeping the light ball's
+/// `v_y = 0`): `(v_heavy - v_light).n = 0` gives `j (1/M + n_x^2/m) = 5 n_x`, `j = 0.3938`
+/// N s, the light ball left at (0.127, 0, 0) m/s and the heavy ball at 0.0788 m/s along `n`:
+/// 0.0159 J. A sequential solve gives a different split, but never more than 0.625 J.
+#[test]
+#[ignore = "fails before the resting-phase fix: kinetic energy rises from 0.625 J to 303.5 J (485x)"]
+fn light_against_heavy_keeps_energy() {
+    let mut app = awake_default();
+    let (light, heavy) = scenes::light_against_heavy(app.world_mut());
+    // The light ball's 0.05 kg at 5 m/s (`ComputedMass` is derived in the first step).
+    let e0 = 0.625f64;
+    let mut highest = e0;
+    for _ in 0..120 {
+        app.update();
+        highest = highest.max(kinetic(&app, &[light, heavy]));
+    }
+    assert!(
+        highest <= e0 * (1.0 + 1e-5),
+        "kinetic energy rose from {e0} J to {highest} J"
+    );
+}
+
+/// Kinetic energy of `bodies`, J (f64, from the stored f32 state).
+fn kinetic(app: &App, bodies: &[Entity]) -> f64 {
+    bodies.iter().map(|&e| body_state(app, e).kinetic).sum()
+}
+
+/// Issue 8: the symmetric three-ball hit gives the symmetric, simultaneous answer and keeps
+/// its energy at e = 1.
+///
+/// Derivation (unit masses, A at (1, 0) m/s, B and C at rest, normals from A
+/// `n_B = (cos 30, sin 30)`, `n_C = (cos 30, -sin 30)`; impulses `j_B n_B` on B, `j_C n_C` on
+/// C, minus both on A). Solved together, each contact's restitution law
+/// `(v_X - v_A).n_X = -e (v0_X - v0_A).n_X = cos 30` (the approach was `-cos 30`); by symmetry
+/// `j_B = j_C = j`, so `v_A = (1 - 2 j cos 30, 0)`, `v_B = j n_B`, and
+/// `j - (1 - 2 j cos 30) cos 30 = cos 30`, i.e. `j (1 + 2 cos^2 30) = 2 cos 30`,
+/// `j = 2 (0.866025) / 2.5 = 0.692820`: A (1 - 2 j cos 30, 0) = (-0.2, 0), B = j n_B =
+/// (0.6, 0.346410), C (0.6, -0.346410). Energy: (0.04 + 2 (0.36 + 0.12)) / 2 = 0.5 J, the
+/// striker's 0.5 J; momentum 0.6 + 0.6 - 0.2 = 1 along x.
+///
+/// Tolerances: 1e-3 m/s on each velocity, ten times the solver's velocity tolerance (1e-4
+/// m/s, where its block solves stop); energy within 1e-3 relative (the same 1e-4 m/s on
+/// speeds of order 1). Today the hybrid resolves one contact first and treats the 0.43 m/s
+/// re-impact as inelastic (under the 0.5 m/s threshold): asymmetric, 9.4% of the energy lost.
+#[test]
+#[ignore = "fails before the simultaneous-impact fix: A (0.0625, 0.3248), B (0.1875, 0.1083), C (0.75, -0.4330): asymmetric, 9.4% of the energy lost"]
+fn three_ball_hit_is_symmetric() {
+    let mut app = awake_default();
+    let (a, b, c) = scenes::three_ball_hit(app.world_mut());
+    scenes::run_steps(&mut app, 60);
+    let s = 0.6 * 30f32.to_radians().tan();
+    for (e, expected) in [
+        (a, Vec3::new(-0.2, 0.0, 0.0)),
+        (b, Vec3::new(0.6, s, 0.0)),
+        (c, Vec3::new(0.6, -s, 0.0)),
+    ] {
+        let v = velocity(&app, e);
+        assert!(
+            (v - expected).abs().max_element() <= 1e-3,
+            "got A {}, B {}, C {}; expected A (-0.2, 0), B (0.6, +-{s})",
+            velocity(&app, a),
+            velocity(&app, b),
+            velocity(&app, c)
+        );
+    }
+    let e = kinetic(&app, &[a, b, c]);
+    assert!(
+        (e - 0.5).abs() <= 1e-3 * 0.5,
+        "energy {e} J, expected 0.5 J"
+    );
+}
