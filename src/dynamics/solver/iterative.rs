@@ -509,15 +509,19 @@ impl Block {
     /// direction (the normal for a free body, [`Block::push`] for the support) and the factor on
     /// its angular response (1 for a free body, `1 - hold` for the support).
     pub fn response(&self, normal: Vec3) -> Response {
-        let held = Side {
-            direction: self.push,
-            along_normal: normal.dot(self.push),
-            angular: 1.0 - self.hold.clamp(0.0, 1.0),
-        };
         let free = Side {
-            direction: normal,
+            direction: None,
             along_normal: 1.0,
             angular: 1.0,
+        };
+        let held = if self.hold > 0.0 {
+            Side {
+                direction: Some(self.push),
+                along_normal: normal.dot(self.push),
+                angular: 1.0 - self.hold.min(1.0),
+            }
+        } else {
+            free
         };
         let (a, b) = match self.support {
             Support::Neither => (free, free),
@@ -531,8 +535,9 @@ impl Block {
 /// How one body of a block responds to the block's impulse.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Side {
-    /// Direction of its velocity change per unit impulse, before its inverse mass.
-    pub direction: Vec3,
+    /// Direction of its velocity change per unit impulse, before its inverse mass; `None`: the
+    /// row's own normal (a free body).
+    pub direction: Option<Vec3>,
     /// `direction . n`: 1 for a free body (exactly), `1 - hold` for a held support.
     pub along_normal: f32,
     /// Factor on its angular response.
@@ -553,14 +558,18 @@ pub struct Response {
 #[inline]
 fn apply_response(c: &ContactConstraint, bodies: &mut [SolverBody], impulse: f32, r: &Response) {
     let (a, b) = super::body::pair_mut(bodies, c.body_a, c.body_b);
-    if r.a.direction != Vec3::ZERO {
-        a.linear_velocity -= a.inverse_mass * (impulse * r.a.direction);
+    let (dir_a, dir_b) = (
+        r.a.direction.unwrap_or(c.normal),
+        r.b.direction.unwrap_or(c.normal),
+    );
+    if dir_a != Vec3::ZERO {
+        a.linear_velocity -= a.inverse_mass * (impulse * dir_a);
     }
     if c.angular && r.a.angular > 0.0 {
         a.angular_velocity -= (r.a.angular * impulse) * c.ang_a;
     }
-    if r.b.direction != Vec3::ZERO {
-        b.linear_velocity += b.inverse_mass * (impulse * r.b.direction);
+    if dir_b != Vec3::ZERO {
+        b.linear_velocity += b.inverse_mass * (impulse * dir_b);
     }
     if c.angular && r.b.angular > 0.0 {
         b.angular_velocity += (r.b.angular * impulse) * c.ang_b;

@@ -628,8 +628,16 @@ fn support_holds(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: 
         let normal = sign * rows[0].normal;
         let support_body = &bodies[lower];
         let lower_fixed = support_body.motion != Motion::Dynamic;
+        // A pair's rows on several manifolds (a body on a trimesh's triangles) do not share
+        // one normal: the support's response along one normal means nothing for the others,
+        // so such a block is solved two-body.
+        let one_normal = rows
+            .iter()
+            .all(|c| c.normal.dot(rows[0].normal) >= 1.0 - 1e-6);
         let (hold, push) = if lower_fixed {
             (1.0, Vec3::ZERO)
+        } else if !one_normal {
+            (0.0, normal)
         } else {
             let centroid = rows.iter().map(|c| c.point).sum::<Vec3>() / rows.len() as f32;
             // The block's rows have a lever arm on the support (relative 1e-7 of its inverse
