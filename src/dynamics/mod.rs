@@ -4,6 +4,7 @@ pub mod mass;
 pub mod rigid_body;
 pub mod sleep;
 pub mod solver;
+pub mod validation;
 
 pub use mass::ComputedMass;
 pub use rigid_body::{
