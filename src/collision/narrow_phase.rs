@@ -5,7 +5,7 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::query::{
     ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher, NonlinearRigidMotion,
-    PersistentQueryDispatcher, ShapeCastOptions, cast_shapes, cast_shapes_nonlinear,
+    PersistentQueryDispatcher, ShapeCastOptions, cast_shapes, cast_shapes_nonlinear, distance,
 };
 use parry3d::shape::Shape;
 
@@ -121,7 +121,8 @@ pub struct StepMotion {
 }
 
 impl StepMotion {
-    fn nonlinear(&self) -> NonlinearRigidMotion {
+    /// parry's description of this motion.
+    pub fn nonlinear(&self) -> NonlinearRigidMotion {
         NonlinearRigidMotion::new(self.pose, self.local_center, self.linear, self.angular)
     }
 
@@ -193,7 +194,15 @@ pub fn time_of_impact(
         &a.pose, a.linear, shape_a, &b.pose, b.linear, shape_b, options,
     );
     let t = match linear {
-        Ok(None) => return Meeting::Miss,
+        // parry's linear cast reports nothing for shapes that do not move relative to each
+        // other, even within the target distance: check the distance at the start.
+        Ok(None) => {
+            return match distance(&a.pose, shape_a, &b.pose, shape_b) {
+                Ok(d) if d <= options.target_distance => Meeting::At(0.0),
+                Ok(_) => Meeting::Miss,
+                Err(_) => Meeting::Unknown,
+            };
+        }
         Ok(Some(hit)) => hit.time_of_impact,
         Err(_) => return Meeting::Unknown,
     };
