@@ -20,8 +20,8 @@ use crate::collision::{Collider, ContactPairs};
 use crate::dynamics::sleep::{SleepConfig, SleepTimer, Sleeping, islands_to_sleep};
 use crate::dynamics::solver::{self, ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{
-    DEFAULT_DT, MAX_ANGULAR_SPEED, MAX_COORDINATE, MAX_LINEAR_SPEED, body_label, check_length,
-    validated_dt, within,
+    DEFAULT_DT, MAX_ANGULAR_SPEED, MAX_COORDINATE, MAX_LINEAR_SPEED, PhysicsLengthUnit, body_label,
+    check_length, validated_dt, within,
 };
 use crate::dynamics::{
     AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
@@ -79,10 +79,13 @@ pub struct PhysicsState {
     lost: Vec<Entity>,
     /// Steps since the propagation bound warning was last logged.
     steps_since_bound_warning: u32,
-    /// The settings of this step, validated (see [`validate_settings`]): the stages read these,
-    /// never the resources, so the solver only sees valid values. They are also the last good
-    /// values the next step falls back on.
+    /// The settings of this step, validated (see [`validate_settings`]) and with lengths and
+    /// speeds scaled by the length unit: the stages read these, never the resources, so the
+    /// solver only sees valid values.
     settings: Settings,
+    /// The last valid settings as the user gave them (unscaled): what an invalid value falls
+    /// back on.
+    last_good: Settings,
     /// The messages about invalid settings logged in the last step: a message is logged when
     /// it first appears, not again while the same bad value stays.
     settings_reported: Vec<String>,
@@ -95,6 +98,9 @@ struct Settings {
     gravity: Gravity,
     sleep: SleepConfig,
     dt: f32,
+    length_unit: f32,
+    /// [`TOUCH_DISTANCE`] in the length unit, m.
+    touch_distance: f32,
 }
 
 impl Default for Settings {
@@ -104,6 +110,8 @@ impl Default for Settings {
             gravity: Gravity::default(),
             sleep: SleepConfig::default(),
             dt: DEFAULT_DT,
+            length_unit: 1.0,
+            touch_distance: TOUCH_DISTANCE,
         }
     }
 }
@@ -116,9 +124,10 @@ fn validate_settings(
     config: &SolverConfig,
     gravity: &Gravity,
     sleep: &SleepConfig,
+    unit: &PhysicsLengthUnit,
     dt: f32,
 ) {
-    let last = &state.settings;
+    let last = &state.last_good;
     let (config, mut errors) = config.validated(&last.config);
     let (gravity, e) = gravity.validated(last.gravity);
     errors.extend(e);
@@ -126,18 +135,40 @@ fn validate_settings(
     errors.extend(e);
     let (dt, e) = validated_dt(dt, last.dt);
     errors.extend(e);
+    let (unit, e) = unit.validated(last.length_unit);
+    errors.extend(e);
     for error in &errors {
         if !state.settings_reported.contains(error) {
             log::error!("impact3d: invalid setting: {error}");
         }
     }
     state.settings_reported = errors;
-    state.settings = Settings {
+    state.last_good = Settings {
         config,
         gravity,
         sleep,
         dt,
+        length_unit: unit,
+        touch_distance: TOUCH_DISTANCE,
     };
+    state.settings = state.last_good.scaled();
+}
+
+impl Settings {
+    /// These settings with every length (m) and speed (m/s) multiplied by the length unit.
+    fn scaled(&self) -> Settings {
+        let u = self.length_unit;
+        let mut s = self.clone();
+        let c = &mut s.config;
+        c.contact_margin *= u;
+        c.linear_slop *= u;
+        c.velocity_tolerance *= u;
+        c.restitution_threshold *= u;
+        c.max_push_out_speed *= u;
+        s.sleep.linear_threshold *= u;
+        s.touch_distance = TOUCH_DISTANCE * u;
+        s
+    }
 }
 
 /// The components of a body as the prepare stage reads them.
@@ -168,12 +199,17 @@ pub fn prepare_bodies(
     mut commands: Commands,
     ticks: SystemChangeTick,
     time: Res<Time>,
-    (config, gravity, sleep): (Res<SolverConfig>, Res<Gravity>, Res<SleepConfig>),
+    (config, gravity, sleep, unit): (
+        Res<SolverConfig>,
+        Res<Gravity>,
+        Res<SleepConfig>,
+        Res<PhysicsLengthUnit>,
+    ),
     mut state: ResMut<PhysicsState>,
     mut query: Query<BodyData>,
 ) {
     let state = &mut *state;
-    validate_settings(state, &config, &gravity, &sleep, time.delta_secs());
+    validate_settings(state, &config, &gravity, &sleep, &unit, time.delta_secs());
     let (config, sleep) = (&state.settings.config, &state.settings.sleep);
     let (margin, speculative, sleep_enabled) = (
         config.contact_margin,
@@ -843,7 +879,7 @@ pub fn solve_contacts(
         } else {
             ContactImpulse::default()
         };
-        if c.separation <= TOUCH_DISTANCE || c.total_impulse > 0.0 {
+        if c.separation <= state.settings.touch_distance || c.total_impulse > 0.0 {
             touching[p as usize] = true;
         }
         let report = match config.impact_messages {

@@ -13,6 +13,7 @@ pub use rigid_body::{
 };
 pub use sleep::{SleepConfig, SleepTimer, Sleeping};
 pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
+pub use validation::PhysicsLengthUnit;
 
 use bevy::prelude::*;
 
@@ -30,6 +31,8 @@ impl Plugin for DynamicsPlugin {
             .init_resource::<SolverConfig>()
             .init_resource::<SolverStats>()
             .init_resource::<SleepConfig>()
+            .init_resource::<validation::PhysicsLengthUnit>()
+            .register_type::<validation::PhysicsLengthUnit>()
             .register_type::<Sleeping>()
             .register_type::<SleepTimer>()
             .register_type::<SleepConfig>()

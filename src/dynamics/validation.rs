@@ -52,6 +52,53 @@ pub const MAX_DT: f32 = 1.0;
 /// fixed step, 1/64 s.
 pub const DEFAULT_DT: f32 = 1.0 / 64.0;
 
+/// The world's length unit, m: how long "one" is for the plugin's absolute lengths and speeds.
+/// The contact margin, the linear slop, the touch distance and every speed threshold
+/// ([`SolverConfig`]'s `velocity_tolerance`, `restitution_threshold`, `max_push_out_speed`
+/// and [`SleepConfig::linear_threshold`]) are multiplied by it. Default 1 (a world of objects
+/// around a metre); set it to the size of a typical object, e.g. `PhysicsLengthUnit(1e-3)` for
+/// a world of millimetre dice (as avian's `PhysicsLengthUnit`). Valid: finite, in
+/// `[1e-6, 1e6]`; an invalid value is logged once and the last good one is used.
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+/// use impact3d::dynamics::validation::PhysicsLengthUnit;
+///
+/// let mut app = App::new();
+/// app.add_plugins((MinimalPlugins, PhysicsPlugins::default()))
+///     .insert_resource(PhysicsLengthUnit(1e-3));
+/// ```
+#[derive(Resource, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Resource, Debug, Default, PartialEq)]
+pub struct PhysicsLengthUnit(pub f32);
+
+impl Default for PhysicsLengthUnit {
+    fn default() -> Self {
+        PhysicsLengthUnit(1.0)
+    }
+}
+
+impl PhysicsLengthUnit {
+    /// The unit, or `last_good` with a message when it is not finite or outside
+    /// `[1e-6, 1e6]` m.
+    pub fn validated(&self, last_good: f32) -> (f32, Option<String>) {
+        if (1e-6..=1e6).contains(&self.0) {
+            (self.0, None)
+        } else {
+            (
+                last_good,
+                Some(format!(
+                    "PhysicsLengthUnit = {:?} m is invalid (expected in [1e-6, 1e6]); using {last_good:?}",
+                    self.0
+                )),
+            )
+        }
+    }
+}
+
 /// The entity as log lines name it: `body "crate 3" (12v0)` when it has a [`Name`], else
 /// `body 12v0`.
 ///
