@@ -570,3 +570,72 @@ fn log_lines_name_bodies_by_name() {
         "{logs:?}"
     );
 }
+
+/// Regression (issue 9): in a resting pile of 50 bodies, one body given `Mass(3e38)`,
+/// `LinearVelocity(1e30)` or `AngularVelocity(1e30)` got 34-99 other bodies quarantined, none
+/// of which rejoined, and 24,000 log lines followed the fix. In a pyramid of 55 cubes, the bad
+/// value on a cube of the middle row for one step now quarantines that cube alone, with one
+/// error line and one line when it rejoins on the next step, and nothing more in 60 steps.
+#[test]
+fn one_bad_body_in_a_pile_quarantines_only_itself() {
+    type Change = fn(&mut EntityWorldMut);
+    let changes: [(&str, Change, Change); 3] = [
+        (
+            "Mass(3e38)",
+            |e| {
+                e.insert(Mass(3e38));
+            },
+            |e| {
+                e.insert(Mass(1.0));
+            },
+        ),
+        (
+            "LinearVelocity(1e30)",
+            |e| {
+                e.insert(LinearVelocity(Vec3::splat(1e30)));
+            },
+            |e| {
+                e.insert(LinearVelocity(Vec3::ZERO));
+            },
+        ),
+        (
+            "AngularVelocity(1e30)",
+            |e| {
+                e.insert(AngularVelocity(Vec3::splat(1e30)));
+            },
+            |e| {
+                e.insert(AngularVelocity(Vec3::ZERO));
+            },
+        ),
+    ];
+    for (what, set, restore) in changes {
+        capture_logs();
+        let mut app = headless_app(60.0);
+        app.insert_resource(SleepConfig {
+            enabled: false,
+            ..default()
+        });
+        let cubes = scenes::pyramid(app.world_mut(), 10);
+        let bad = cubes[30];
+        run_steps(&mut app, 10);
+        set(&mut app.world_mut().entity_mut(bad));
+        app.update();
+        restore(&mut app.world_mut().entity_mut(bad));
+        for step in 0..60 {
+            app.update();
+            for &c in &cubes {
+                assert!(
+                    !quarantined(&app, c),
+                    "{what}: step {step}: {c} quarantined"
+                );
+                assert!(position(&app, c).is_finite(), "{what}");
+            }
+        }
+        let logs = take_logs();
+        assert_eq!(logs.len(), 2, "{what}: {logs:?}");
+        assert!(
+            logs[0].1.contains("left out") && logs[1].1.contains("rejoins"),
+            "{logs:?}"
+        );
+    }
+}
