@@ -639,3 +639,70 @@ fn one_bad_body_in_a_pile_quarantines_only_itself() {
         );
     }
 }
+
+/// The bounds are where the step's products stay finite: bodies at them (1e6 m/s, 1e6 rad/s,
+/// 1e12 kg and 1e-9 kg, 9e6 m from the origin, a kinematic bar turning at 1e5 rad/s) never
+/// produce a non-finite state under any method: nothing non-finite is written, and every
+/// error is about an input out of range (a body the step pushed past a bound is quarantined
+/// the next step, as bad input), never about a non-finite result.
+#[test]
+fn values_at_the_bounds_stay_finite() {
+    let mut seed = 1u32;
+    let mut next = move || {
+        seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+    };
+    for method in SolverMethod::ALL {
+        for trial in 0..4 {
+            capture_logs();
+            let mut app = headless_app(60.0);
+            app.insert_resource(SolverConfig::for_method(method));
+            let cubes = scenes::stack(app.world_mut(), 3);
+            let speed = [1e6f32, 9.9e5, 1e5, 1e3][trial];
+            let mass = [1e12f32, 1e-9, 1.0, 1e11][trial];
+            let spin = [1e5f32, 0.0, 9.9e5, 1e6][trial];
+            let dir = Vec3::new(next(), next(), next()).normalize();
+            app.world_mut().entity_mut(cubes[1]).insert((
+                Mass(mass),
+                LinearVelocity(dir * speed),
+                AngularVelocity(dir.cross(Vec3::Y).normalize_or_zero() * spin),
+            ));
+            app.world_mut().spawn((
+                RigidBody::Kinematic,
+                Collider::cuboid(1.0, 0.05, 0.1),
+                Transform::from_xyz(0.0, 0.12, 3.0),
+                AngularVelocity(Vec3::Y * 1e5),
+            ));
+            app.world_mut().spawn((scenes::ball(
+                0.1,
+                1e-9,
+                Vec3::new(0.6, 0.1, 3.3),
+                Vec3::ZERO,
+            ),));
+            app.world_mut().spawn((
+                RigidBody::Dynamic,
+                Collider::capsule(0.1, 0.3),
+                Mass(1e12),
+                Transform::from_xyz(9e6, 9e6, 0.0),
+                LinearVelocity(Vec3::X * 1e6),
+            ));
+            run_steps(&mut app, 40);
+            let mut q = app
+                .world_mut()
+                .query::<(&Transform, Option<&LinearVelocity>)>();
+            for (t, v) in q.iter(app.world()) {
+                assert!(
+                    t.translation.is_finite() && t.rotation.is_finite(),
+                    "{method:?}"
+                );
+                assert!(v.is_none_or(|v| v.0.is_finite()), "{method:?}");
+            }
+            for error in errors() {
+                assert!(
+                    error.contains("above 1e6") || error.contains("beyond 1e7"),
+                    "{method:?} trial {trial}: {error}"
+                );
+            }
+        }
+    }
+}
