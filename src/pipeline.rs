@@ -12,7 +12,7 @@ use parry3d::math::Pose;
 use parry3d::query::cast_shapes_nonlinear;
 use parry3d::shape::{Ball, Shape, SharedShape};
 
-use crate::collision::broad_phase::sweep_and_prune;
+use crate::collision::broad_phase::pairs_with_active;
 use crate::collision::narrow_phase::{
     ContactImpulse, Meeting, StepMotion, TOUCH_DISTANCE, time_of_impact,
 };
@@ -51,6 +51,12 @@ pub struct PhysicsState {
     /// for spheres (a turning sphere's surface stays in place) and static bodies.
     spin_reach: Vec<f32>,
     aabbs: Vec<parry3d::bounding_volume::Aabb>,
+    /// The body can have gained or lost an overlap since the last step: awake, kinematic, or
+    /// static or sleeping but changed (or asleep only since the end of the last step). Pairs
+    /// of two inactive bodies are carried over from the last step instead of being searched.
+    active: Vec<bool>,
+    /// Scratch: (entity, body index), sorted, to find the carried-over pairs' bodies.
+    index_of: Vec<(Entity, u32)>,
     index_pairs: Vec<(u32, u32)>,
     sort_scratch: Vec<u32>,
     /// Broad-phase pairs as entities `(a, b)`, `a < b`, sorted, with their body indices.
@@ -229,6 +235,7 @@ pub fn prepare_bodies(
     state.reach.clear();
     state.spin_reach.clear();
     state.aabbs.clear();
+    state.active.clear();
     state.radius.clear();
     state.asleep.clear();
     state.woken.clear();
@@ -378,6 +385,18 @@ pub fn prepare_bodies(
                 0.0
             });
         state.aabbs.push(aabb);
+        // Dynamic and kinematic bodies are active (asleep ones are static here, and turned
+        // back by `wake_islands` if woken); a static or sleeping body only if something about
+        // it changed, or it fell asleep at the end of the last step (its pairs were found
+        // from the box it had at the start of that step).
+        state.active.push(
+            body.motion != Motion::Static
+                || item.transform.is_changed()
+                || item.collider.is_changed()
+                || item.body.as_ref().is_some_and(|b| b.is_changed())
+                || item.quarantined.is_some()
+                || item.sleeping.as_ref().is_some_and(|m| m.is_added()),
+        );
         state.radius.push(radius);
         state.asleep.push(asleep);
     }
@@ -387,6 +406,14 @@ pub fn prepare_bodies(
     // Islands the user touched wake whole.
     let woken = std::mem::take(&mut state.woken);
     wake_islands(state, &woken);
+    mark_awake_active(state);
+}
+
+/// Marks every body that is not static in the solve (a woken sleeper) as active.
+fn mark_awake_active(state: &mut PhysicsState) {
+    for (active, body) in state.active.iter_mut().zip(&state.bodies) {
+        *active |= body.motion != Motion::Static;
+    }
 }
 
 /// Swaps the bodies of the given islands back in as dynamic bodies and records the islands as
@@ -513,10 +540,11 @@ fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
 
 /// Finds candidate pairs by sweep and prune, keeping only pairs where at least one body is
 /// dynamic.
-pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
+pub fn update_broad_phase(mut state: ResMut<PhysicsState>, pairs: Res<ContactPairs>) {
     let state = &mut *state;
-    sweep_and_prune(
+    pairs_with_active(
         &state.aabbs,
+        &state.active,
         &mut state.index_pairs,
         &mut state.sort_scratch,
     );
@@ -541,6 +569,42 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
         }
         if islands.is_empty() || !wake_islands(state, &islands) {
             break;
+        }
+        // The woken bodies are active now: search their pairs too.
+        mark_awake_active(state);
+        pairs_with_active(
+            &state.aabbs,
+            &state.active,
+            &mut state.index_pairs,
+            &mut state.sort_scratch,
+        );
+    }
+    // Pairs of two inactive bodies cannot have changed since the last step (neither moved):
+    // carry them over instead of sweeping every sleeping and static body each step.
+    if state.active.iter().any(|a| !a) {
+        state.index_of.clear();
+        state.index_of.extend(
+            state
+                .entities
+                .iter()
+                .enumerate()
+                .map(|(i, &e)| (e, i as u32)),
+        );
+        state.index_of.sort_unstable();
+        let find = |e: Entity| {
+            state
+                .index_of
+                .binary_search_by_key(&e, |&(e, _)| e)
+                .ok()
+                .map(|k| state.index_of[k].1)
+        };
+        for p in pairs.iter() {
+            if let (Some(i), Some(j)) = (find(p.a), find(p.b))
+                && !state.active[i as usize]
+                && !state.active[j as usize]
+            {
+                state.index_pairs.push((i.min(j), i.max(j)));
+            }
         }
     }
     let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
