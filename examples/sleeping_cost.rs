@@ -2,7 +2,8 @@
 //! awake in free flight and once all asleep, timed over 100 steps after 10 of warm-up.
 //!
 //! ```sh
-//! cargo run --release --example sleeping_cost
+//! cargo run --release --example sleeping_cost          # both
+//! cargo run --release --example sleeping_cost asleep   # or only `asleep` / `awake`
 //! ```
 
 use std::time::Instant;
@@ -11,7 +12,12 @@ use impact3d::prelude::*;
 use impact3d::scenes;
 
 fn main() {
-    for asleep in [false, true] {
+    let which: Vec<bool> = match std::env::args().nth(1).as_deref() {
+        Some("asleep") => vec![true],
+        Some("awake") => vec![false],
+        _ => vec![false, true],
+    };
+    for asleep in which {
         let mut app = scenes::headless_app(60.0);
         let bodies = scenes::sparse_flight(app.world_mut(), 10_000);
         if asleep {
