@@ -9,13 +9,20 @@ use bevy::ecs::system::SystemChangeTick;
 use bevy::prelude::*;
 use parry3d::bounding_volume::BoundingVolume;
 use parry3d::math::Pose;
-use parry3d::shape::SharedShape;
+use parry3d::query::cast_shapes_nonlinear;
+use parry3d::shape::{Ball, Shape, SharedShape};
 
-use crate::collision::broad_phase::sweep_and_prune;
-use crate::collision::narrow_phase::{ContactImpulse, TOUCH_DISTANCE};
+use crate::collision::broad_phase::pairs_with_active;
+use crate::collision::narrow_phase::{
+    ContactImpulse, Meeting, StepMotion, TOUCH_DISTANCE, time_of_impact,
+};
 use crate::collision::{Collider, ContactPairs};
 use crate::dynamics::sleep::{SleepConfig, SleepTimer, Sleeping, islands_to_sleep};
 use crate::dynamics::solver::{self, ContactConstraint, Motion, SolverBody};
+use crate::dynamics::validation::{
+    DEFAULT_DT, MAX_ANGULAR_SPEED, MAX_COORDINATE, MAX_LINEAR_SPEED, PhysicsLengthUnit, body_label,
+    check_length, validated_dt, within,
+};
 use crate::dynamics::{
     AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
     LockedAxes, Mass, Quarantined, Restitution, RigidBody, SolverConfig, SolverStats,
@@ -40,7 +47,16 @@ pub struct PhysicsState {
     friction: Vec<f32>,
     /// How far each body can move in one step, m: `|v| dt + |w| dt R`.
     reach: Vec<f32>,
+    /// How far rotation alone can carry a point of each body in one step, m: `|w| dt R`, zero
+    /// for spheres (a turning sphere's surface stays in place) and static bodies.
+    spin_reach: Vec<f32>,
     aabbs: Vec<parry3d::bounding_volume::Aabb>,
+    /// The body can have gained or lost an overlap since the last step: awake, kinematic, or
+    /// static or sleeping but changed (or asleep only since the end of the last step). Pairs
+    /// of two inactive bodies are carried over from the last step instead of being searched.
+    active: Vec<bool>,
+    /// Scratch: (entity, body index), sorted, to find the carried-over pairs' bodies.
+    index_of: Vec<(Entity, u32)>,
     index_pairs: Vec<(u32, u32)>,
     sort_scratch: Vec<u32>,
     /// Broad-phase pairs as entities `(a, b)`, `a < b`, sorted, with their body indices.
@@ -69,6 +85,96 @@ pub struct PhysicsState {
     lost: Vec<Entity>,
     /// Steps since the propagation bound warning was last logged.
     steps_since_bound_warning: u32,
+    /// The settings of this step, validated (see [`validate_settings`]) and with lengths and
+    /// speeds scaled by the length unit: the stages read these, never the resources, so the
+    /// solver only sees valid values.
+    settings: Settings,
+    /// The last valid settings as the user gave them (unscaled): what an invalid value falls
+    /// back on.
+    last_good: Settings,
+    /// The messages about invalid settings logged in the last step: a message is logged when
+    /// it first appears, not again while the same bad value stays.
+    settings_reported: Vec<String>,
+}
+
+/// The validated settings of one step.
+#[derive(Clone, Debug)]
+struct Settings {
+    config: SolverConfig,
+    gravity: Gravity,
+    sleep: SleepConfig,
+    dt: f32,
+    length_unit: f32,
+    /// [`TOUCH_DISTANCE`] in the length unit, m.
+    touch_distance: f32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            config: SolverConfig::default(),
+            gravity: Gravity::default(),
+            sleep: SleepConfig::default(),
+            dt: DEFAULT_DT,
+            length_unit: 1.0,
+            touch_distance: TOUCH_DISTANCE,
+        }
+    }
+}
+
+/// Validates the settings resources and the step length against the last good values (see
+/// [`SolverConfig::validated`]), logging each invalid value once, as an error naming the
+/// field and the value, for as long as it stays.
+fn validate_settings(
+    state: &mut PhysicsState,
+    config: &SolverConfig,
+    gravity: &Gravity,
+    sleep: &SleepConfig,
+    unit: &PhysicsLengthUnit,
+    dt: f32,
+) {
+    let last = &state.last_good;
+    let (config, mut errors) = config.validated(&last.config);
+    let (gravity, e) = gravity.validated(last.gravity);
+    errors.extend(e);
+    let (sleep, e) = sleep.validated(&last.sleep);
+    errors.extend(e);
+    let (dt, e) = validated_dt(dt, last.dt);
+    errors.extend(e);
+    let (unit, e) = unit.validated(last.length_unit);
+    errors.extend(e);
+    for error in &errors {
+        if !state.settings_reported.contains(error) {
+            log::error!("impact3d: invalid setting: {error}");
+        }
+    }
+    state.settings_reported = errors;
+    state.last_good = Settings {
+        config,
+        gravity,
+        sleep,
+        dt,
+        length_unit: unit,
+        touch_distance: TOUCH_DISTANCE,
+    };
+    state.settings = state.last_good.scaled();
+}
+
+impl Settings {
+    /// These settings with every length (m) and speed (m/s) multiplied by the length unit.
+    fn scaled(&self) -> Settings {
+        let u = self.length_unit;
+        let mut s = self.clone();
+        let c = &mut s.config;
+        c.contact_margin *= u;
+        c.linear_slop *= u;
+        c.velocity_tolerance *= u;
+        c.restitution_threshold *= u;
+        c.max_push_out_speed *= u;
+        s.sleep.linear_threshold *= u;
+        s.touch_distance = TOUCH_DISTANCE * u;
+        s
+    }
 }
 
 /// The components of a body as the prepare stage reads them.
@@ -87,6 +193,7 @@ pub struct BodyData {
     density: Option<Ref<'static, Density>>,
     computed: Option<&'static mut ComputedMass>,
     locked: Option<&'static LockedAxes>,
+    name: Option<&'static Name>,
     quarantined: Option<&'static Quarantined>,
     sleeping: Option<Ref<'static, Sleeping>>,
 }
@@ -98,14 +205,26 @@ pub fn prepare_bodies(
     mut commands: Commands,
     ticks: SystemChangeTick,
     time: Res<Time>,
-    config: Res<SolverConfig>,
-    sleep: Res<SleepConfig>,
+    (config, gravity, sleep, unit): (
+        Res<SolverConfig>,
+        Res<Gravity>,
+        Res<SleepConfig>,
+        Res<PhysicsLengthUnit>,
+    ),
     mut state: ResMut<PhysicsState>,
     mut query: Query<BodyData>,
 ) {
     let state = &mut *state;
-    let dt = time.delta_secs();
+    validate_settings(state, &config, &gravity, &sleep, &unit, time.delta_secs());
+    let (config, sleep) = (&state.settings.config, &state.settings.sleep);
+    let (margin, speculative, sleep_enabled) = (
+        config.contact_margin,
+        config.speculative_contacts,
+        sleep.enabled,
+    );
+    let dt = state.settings.dt;
     state.dt = dt;
+    let gravity_speed = state.settings.gravity.0.length() * dt;
     state.entities.clear();
     state.bodies.clear();
     state.local_com.clear();
@@ -114,7 +233,9 @@ pub fn prepare_bodies(
     state.restitution.clear();
     state.friction.clear();
     state.reach.clear();
+    state.spin_reach.clear();
     state.aabbs.clear();
+    state.active.clear();
     state.radius.clear();
     state.asleep.clear();
     state.woken.clear();
@@ -123,24 +244,29 @@ pub fn prepare_bodies(
         let entity = item.entity;
         let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
         let check = validate(&mut item, kind);
+        let label = || body_label(entity, item.name);
         match (check, item.quarantined) {
             (Err(reason), quarantined) => {
                 if quarantined.is_none_or(|q| q.reason != reason) {
                     log::error!(
-                        "impact3d: body {entity} is left out of the physics step: {reason}"
+                        "impact3d: {} is left out of the physics step: {reason}",
+                        label()
                     );
                     commands.entity(entity).insert(Quarantined { reason });
                 }
                 continue;
             }
             (Ok(()), Some(_)) => {
-                log::info!("impact3d: body {entity} is valid again and rejoins the physics step");
+                log::info!(
+                    "impact3d: {} is valid again and rejoins the physics step",
+                    label()
+                );
                 commands.entity(entity).remove::<Quarantined>();
             }
             (Ok(()), None) => {}
         }
-        warn_on_coefficient_change(entity, item.restitution.as_ref(), "restitution", 1.0);
-        warn_on_coefficient_change(entity, item.friction.as_ref(), "friction", f32::INFINITY);
+        warn_on_coefficient_change(&label, item.restitution.as_ref(), "restitution", 1.0);
+        warn_on_coefficient_change(&label, item.friction.as_ref(), "friction", f32::INFINITY);
 
         let rotation = item.transform.rotation.normalize();
         let translation = item.transform.translation;
@@ -179,7 +305,7 @@ pub fn prepare_bodies(
         };
         // A sleeping body enters the step as static; it is swapped back in if woken.
         let asleep = match (&item.sleeping, kind) {
-            (Some(marker), RigidBody::Dynamic) if sleep.enabled => {
+            (Some(marker), RigidBody::Dynamic) if sleep_enabled => {
                 let since = marker.added();
                 let now = ticks.this_run();
                 let touched = item.transform.last_changed().is_newer_than(since, now)
@@ -210,14 +336,32 @@ pub fn prepare_bodies(
             ),
             None => (body, None),
         };
-        let reach = if config.speculative_contacts && body.motion != Motion::Static {
-            (body.linear_velocity.length() + body.angular_velocity.length() * radius) * dt
+        let moving = speculative && body.motion != Motion::Static;
+        // Gravity adds up to |g| dt to a dynamic body's speed within the step: without it, a
+        // body falling from just beyond its reach lands `|g| dt^2` deep.
+        let gained = if body.motion == Motion::Dynamic {
+            gravity_speed
         } else {
             0.0
         };
-        let aabb = shape
-            .compute_aabb(&pose)
-            .loosened(0.5 * config.contact_margin + reach);
+        let reach = if moving {
+            (body.linear_velocity.length() + gained + body.angular_velocity.length() * radius) * dt
+        } else {
+            0.0
+        };
+        // The box swept along the step's linear motion, widened by the margin and by how far
+        // rotation can carry a point (|w| dt R): unlike a box widened by the whole reach in
+        // every direction, it does not pull in bodies beside a fast body's path.
+        let aabb = shape.compute_aabb(&pose);
+        let aabb = if moving {
+            let travel = body.linear_velocity * dt
+                + 0.5 * gained * dt * state.settings.gravity.0.normalize_or_zero();
+            let end = parry3d::bounding_volume::Aabb::new(aabb.mins + travel, aabb.maxs + travel);
+            aabb.merged(&end)
+                .loosened(0.5 * margin + body.angular_velocity.length() * radius * dt)
+        } else {
+            aabb.loosened(0.5 * margin)
+        };
 
         state.entities.push(entity);
         state.bodies.push(body);
@@ -233,16 +377,43 @@ pub fn prepare_bodies(
             f32::INFINITY,
         ));
         state.reach.push(reach);
+        state
+            .spin_reach
+            .push(if moving && !item.collider.is_sphere() {
+                body.angular_velocity.length() * radius * dt
+            } else {
+                0.0
+            });
         state.aabbs.push(aabb);
+        // Dynamic and kinematic bodies are active (asleep ones are static here, and turned
+        // back by `wake_islands` if woken); a static or sleeping body only if something about
+        // it changed, or it fell asleep at the end of the last step (its pairs were found
+        // from the box it had at the start of that step).
+        state.active.push(
+            body.motion != Motion::Static
+                || item.transform.is_changed()
+                || item.collider.is_changed()
+                || item.body.as_ref().is_some_and(|b| b.is_changed())
+                || item.quarantined.is_some()
+                || item.sleeping.as_ref().is_some_and(|m| m.is_added()),
+        );
         state.radius.push(radius);
         state.asleep.push(asleep);
     }
-    if !sleep.enabled {
+    if !sleep_enabled {
         return;
     }
     // Islands the user touched wake whole.
     let woken = std::mem::take(&mut state.woken);
     wake_islands(state, &woken);
+    mark_awake_active(state);
+}
+
+/// Marks every body that is not static in the solve (a woken sleeper) as active.
+fn mark_awake_active(state: &mut PhysicsState) {
+    for (active, body) in state.active.iter_mut().zip(&state.bodies) {
+        *active |= body.motion != Motion::Static;
+    }
 }
 
 /// Swaps the bodies of the given islands back in as dynamic bodies and records the islands as
@@ -271,22 +442,38 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
         return Err(format!("invalid collider: {error}"));
     }
     let t = &*item.transform;
-    if !t.translation.is_finite() {
-        return Err(format!("non-finite translation {}", t.translation));
+    if !within(t.translation.abs().max_element(), MAX_COORDINATE) {
+        return Err(format!(
+            "translation {} is not finite or beyond {MAX_COORDINATE:e} m",
+            t.translation
+        ));
     }
-    if !t.rotation.is_finite() || t.rotation.length_squared() < 1e-12 {
-        return Err(format!("invalid rotation {}", t.rotation));
+    let norm = t.rotation.length_squared();
+    if !(norm.is_finite() && norm >= 1e-12) {
+        return Err(format!(
+            "invalid rotation {} (a quaternion of finite, non-zero length is needed)",
+            t.rotation
+        ));
     }
     if kind != RigidBody::Static {
-        if let Some(v) = item.linear_velocity.as_deref().filter(|v| !v.is_finite()) {
-            return Err(format!("non-finite linear velocity {}", v.0));
+        if let Some(v) = item.linear_velocity.as_deref() {
+            check_length("linear velocity", v.0, MAX_LINEAR_SPEED)?;
         }
-        if let Some(w) = item.angular_velocity.as_deref().filter(|w| !w.is_finite()) {
-            return Err(format!("non-finite angular velocity {}", w.0));
+        if let Some(w) = item.angular_velocity.as_deref() {
+            check_length("angular velocity", w.0, MAX_ANGULAR_SPEED)?;
         }
     }
     if kind == RigidBody::Dynamic {
-        let changed = item.collider.is_changed()
+        // `ComputedMass` is the plugin's own: written by anyone else (its change tick is newer
+        // than this system's last run, which is when the plugin last wrote it), it is
+        // recomputed like any stale value.
+        let written = item
+            .computed
+            .as_ref()
+            .is_some_and(|c| c.is_changed() && !c.is_added());
+        let changed = written
+            || item.computed.as_ref().is_some_and(|c| c.is_added())
+            || item.collider.is_changed()
             || item.body.as_ref().is_some_and(|b| b.is_changed())
             || item.mass.as_ref().is_some_and(|m| m.is_changed())
             || item.density.as_ref().is_some_and(|d| d.is_changed())
@@ -302,8 +489,17 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
                 density,
                 item.mass.as_deref().map(|m| m.0),
             )?;
-            if let Some(c) = item.computed.as_deref_mut() {
-                *c = computed;
+            if let Some(mut c) = item.computed.take() {
+                if written && *c != computed {
+                    log::warn!(
+                        "impact3d: {} had its ComputedMass written ({:?}); it is read-only and \
+                         was recomputed from the collider, Density and Mass",
+                        body_label(item.entity, item.name),
+                        *c
+                    );
+                }
+                c.set_if_neq(computed);
+                item.computed = Some(c);
             }
         }
         if item.computed.is_none() {
@@ -315,7 +511,7 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
 
 /// Warns, naming the entity, when a coefficient is set outside `[0, max]` or to NaN.
 fn warn_on_coefficient_change<T: std::ops::Deref<Target = f32> + Component>(
-    entity: Entity,
+    label: &dyn Fn() -> String,
     value: Option<&Ref<T>>,
     what: &str,
     max: f32,
@@ -326,7 +522,8 @@ fn warn_on_coefficient_change<T: std::ops::Deref<Target = f32> + Component>(
     let v = ***value;
     if !(0.0..=max).contains(&v) {
         log::warn!(
-            "impact3d: body {entity} has {what} {v}, outside [0, {max}]; it is clamped to {}",
+            "impact3d: {} has {what} {v}, outside [0, {max}]; it is clamped to {}",
+            label(),
             clamp_coefficient(Some(v), max)
         );
     }
@@ -343,10 +540,11 @@ fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
 
 /// Finds candidate pairs by sweep and prune, keeping only pairs where at least one body is
 /// dynamic.
-pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
+pub fn update_broad_phase(mut state: ResMut<PhysicsState>, pairs: Res<ContactPairs>) {
     let state = &mut *state;
-    sweep_and_prune(
+    pairs_with_active(
         &state.aabbs,
+        &state.active,
         &mut state.index_pairs,
         &mut state.sort_scratch,
     );
@@ -371,6 +569,42 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
         }
         if islands.is_empty() || !wake_islands(state, &islands) {
             break;
+        }
+        // The woken bodies are active now: search their pairs too.
+        mark_awake_active(state);
+        pairs_with_active(
+            &state.aabbs,
+            &state.active,
+            &mut state.index_pairs,
+            &mut state.sort_scratch,
+        );
+    }
+    // Pairs of two inactive bodies cannot have changed since the last step (neither moved):
+    // carry them over instead of sweeping every sleeping and static body each step.
+    if state.active.iter().any(|a| !a) {
+        state.index_of.clear();
+        state.index_of.extend(
+            state
+                .entities
+                .iter()
+                .enumerate()
+                .map(|(i, &e)| (e, i as u32)),
+        );
+        state.index_of.sort_unstable();
+        let find = |e: Entity| {
+            state
+                .index_of
+                .binary_search_by_key(&e, |&(e, _)| e)
+                .ok()
+                .map(|k| state.index_of[k].1)
+        };
+        for p in pairs.iter() {
+            if let (Some(i), Some(j)) = (find(p.a), find(p.b))
+                && !state.active[i as usize]
+                && !state.active[j as usize]
+            {
+                state.index_pairs.push((i.min(j), i.max(j)));
+            }
         }
     }
     let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
@@ -406,12 +640,9 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>) {
 
 /// Updates the persistent contact pairs and builds one contact constraint per contact point,
 /// carrying each point's impulses from the last step.
-pub fn update_narrow_phase(
-    config: Res<SolverConfig>,
-    mut state: ResMut<PhysicsState>,
-    mut pairs: ResMut<ContactPairs>,
-) {
+pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<ContactPairs>) {
     let state = &mut *state;
+    let config = &state.settings.config;
     state.ended.clear();
     state.started.clear();
     state.lost.clear();
@@ -434,21 +665,107 @@ pub fn update_narrow_phase(
         if state.dormant[pair_index] {
             continue;
         }
-        let prediction = config.contact_margin + state.reach[ia] + state.reach[ib];
+        let margin = config.contact_margin;
+        let reach = state.reach[ia] + state.reach[ib];
         let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
-        if !pair.update(
-            pose_a,
-            state.shapes[ia].as_ref(),
-            pose_b,
-            state.shapes[ib].as_ref(),
-            prediction,
-        ) {
-            pair.manifolds.clear();
-            continue;
+        let (shape_a, shape_b) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
+        // Speculative contacts (a prediction wider than the margin) only for pairs that really
+        // meet within the step: a near miss of fast bodies is a miss (no ghost collision).
+        // Gravity bends a path by at most |g| dt^2 / 2 from the straight line the cast follows.
+        let mut prediction = margin + reach;
+        let mut impact_time = None;
+        if reach > margin {
+            let motion = |i: usize| StepMotion {
+                pose: state.poses[i],
+                local_center: state.local_com[i],
+                linear: state.bodies[i].linear_velocity,
+                angular: state.bodies[i].angular_velocity,
+                spin_reach: state.spin_reach[i],
+            };
+            let bend = 0.5 * state.settings.gravity.0.length() * state.dt * state.dt;
+            // The start pose's contact geometry (anchors turned to first order) holds for small
+            // turns; past a quarter radian in the step (14 degrees: the first-order rotation of
+            // a point is then 1% off in length, 12% off in direction at a full radian), and
+            // where the turn carries a point beyond the margin, the contact is generated at the
+            // time of impact instead.
+            let turns_far = |i: usize| {
+                state.spin_reach[i] > margin
+                    && state.bodies[i].angular_velocity.length() * state.dt > 0.25
+            };
+            match time_of_impact(
+                shape_a,
+                &motion(ia),
+                shape_b,
+                &motion(ib),
+                state.dt,
+                bend,
+                margin,
+            ) {
+                Meeting::Miss => prediction = margin,
+                Meeting::At(t) if t > 0.0 && (turns_far(ia) || turns_far(ib)) => {
+                    impact_time = Some((t, motion(ia), motion(ib)));
+                }
+                Meeting::At(_) | Meeting::Unknown => {}
+            }
         }
         let restitution = state.restitution[ia].max(state.restitution[ib]);
         let friction = state.friction[ia].max(state.friction[ib]);
         let start = state.contacts.len();
+        if let Some((t, motion_a, motion_b)) = impact_time {
+            // A spinning body: the contact of its first point to meet the other is generated
+            // at the time-of-impact poses (the start pose's normal and points would miss the
+            // rotation), with its points mapped back to where they are at the start and a
+            // separation that the approach velocity there closes exactly at the impact time.
+            let (toi_a, toi_b) = (motion_a.pose_at(t), motion_b.pose_at(t));
+            if !pair.update(&toi_a, shape_a, &toi_b, shape_b, margin) {
+                pair.manifolds.clear();
+                continue;
+            }
+            let (a, b) = (&state.bodies[ia], &state.bodies[ib]);
+            // The point is moved back with the body that turns farther, so that its lever arm
+            // is the one at impact (`p - x(t)`): the impulse then turns it as the impact does.
+            let carrier = if state.spin_reach[ia] >= state.spin_reach[ib] {
+                &motion_a
+            } else {
+                &motion_b
+            };
+            let shift = carrier.linear * t;
+            for (m, k, impact_point, normal, dist) in pair.world_points(&toi_a, &toi_b) {
+                let point = impact_point - shift;
+                let point_velocity = |body: &SolverBody| {
+                    body.linear_velocity + body.angular_velocity.cross(point - body.position)
+                };
+                let approach = (point_velocity(b) - point_velocity(a)).dot(normal);
+                if approach >= 0.0 {
+                    continue;
+                }
+                let separation = dist.max(0.0) - approach * t;
+                let mut c = ContactConstraint::new(
+                    ia,
+                    ib,
+                    point,
+                    normal,
+                    separation,
+                    restitution,
+                    friction,
+                );
+                let carried = pair.manifolds[m].points[k].data;
+                c.normal_impulse = carried.normal;
+                c.tangent_impulse = carried.tangent;
+                state.contacts.push(c);
+                state
+                    .contact_keys
+                    .push((pair_index as u32, m as u32, k as u32));
+            }
+            if state.contacts.len() > start {
+                state.pair_ranges.push(start..state.contacts.len());
+            }
+            continue;
+        }
+        if !pair.update(pose_a, shape_a, pose_b, shape_b, prediction) {
+            pair.manifolds.clear();
+            continue;
+        }
         for (m, k, point, normal, dist) in pair.world_points(pose_a, pose_b) {
             let mut c = ContactConstraint::new(ia, ib, point, normal, dist, restitution, friction);
             let carried = pair.manifolds[m].points[k].data;
@@ -465,26 +782,133 @@ pub fn update_narrow_phase(
     }
 }
 
+/// Continuous collision after the solve (as Box2D v3's `b2SolveContinuous`): a dynamic body
+/// whose solved motion over the step is longer than the contact margin is swept from its start
+/// pose to its end pose against each of its broad-phase pairs (parry's nonlinear shape cast).
+/// If it would first touch one more than `linear_slop` before the end of its sweep, it is put
+/// back at the pose of that first touch, keeping its velocities: the next step's contact
+/// resolves them. A body already touching at the start is swept by its centre of mass alone
+/// (a point), so that at least its centre never passes through. Bodies the solver stopped in
+/// time, slow bodies and resting contacts are untouched.
+///
+/// Why: the solvers resolve each contact with the geometry of the start of the step. A body
+/// that turns through several radians within the step (a box at 1e3 rad/s: 2.7 turns per
+/// step at 60 Hz) meets the wall in a pose the start geometry does not describe, and every
+/// method but the hybrid one, which resolves impacts one at a time at their time of impact,
+/// let such a body through.
+fn stop_at_first_impact(state: &mut PhysicsState) {
+    let dt = state.dt;
+    let margin = state.settings.config.contact_margin;
+    let slop = state.settings.config.linear_slop;
+    let n = state.bodies.len();
+    // The solved motion of each body as a rigid motion from its start pose: the centre of
+    // mass moves in a straight line to where the solve put it, and the body turns at its
+    // solved angular velocity (or along the shortest arc to its end rotation, for turns under
+    // a radian, which then reproduces the end pose exactly).
+    let motion = |i: usize| {
+        let body = &state.bodies[i];
+        let start = state.poses[i];
+        let com0 = start.transform_point(state.local_com[i]);
+        let linear = (body.position - com0) / dt;
+        let turn = (body.rotation * start.rotation.inverse()).to_scaled_axis();
+        let angular = if turn.length() < 1.0 && body.angular_velocity.length() * dt < 1.0 {
+            turn / dt
+        } else {
+            body.angular_velocity
+        };
+        let sweep = (body.position - com0).length() + angular.length() * dt * state.radius[i];
+        (
+            StepMotion {
+                pose: start,
+                local_center: state.local_com[i],
+                linear,
+                angular,
+                spin_reach: 0.0,
+            },
+            sweep,
+        )
+    };
+    let fast = |i: usize| {
+        state.bodies[i].motion == Motion::Dynamic
+            && state.asleep[i].is_none()
+            && motion(i).1 > margin
+    };
+    let mut first: Vec<f32> = Vec::new();
+    for (k, &(ia, ib)) in state.candidate_indices.iter().enumerate() {
+        if state.dormant[k] || !(fast(ia) || fast(ib)) {
+            continue;
+        }
+        if first.is_empty() {
+            first.resize(n, dt);
+        }
+        let (ma, sweep_a) = motion(ia);
+        let (mb, sweep_b) = motion(ib);
+        let (sa, sb) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
+        let hit = |a: &StepMotion, sa: &dyn Shape, b: &StepMotion, sb: &dyn Shape| {
+            let (a, b) = (a.nonlinear(), b.nonlinear());
+            cast_shapes_nonlinear(&a, sa, &b, sb, 0.0, dt, false)
+                .ok()
+                .flatten()
+                .map(|h| h.time_of_impact)
+        };
+        let t = match hit(&ma, sa, &mb, sb) {
+            Some(t) if t > 0.0 => Some(t),
+            Some(_) => {
+                // Touching at the start: sweep the fast body's centre (a point) instead.
+                let point = Ball::new(0.0);
+                let centre = |m: &StepMotion| StepMotion {
+                    pose: Pose::from_parts(m.pose.transform_point(m.local_center), m.pose.rotation),
+                    local_center: Vec3::ZERO,
+                    ..*m
+                };
+                if fast(ia) {
+                    hit(&centre(&ma), &point, &mb, sb).filter(|&t| t > 0.0)
+                } else {
+                    hit(&ma, sa, &centre(&mb), &point).filter(|&t| t > 0.0)
+                }
+            }
+            None => None,
+        };
+        let Some(t) = t else { continue };
+        for (i, sweep) in [(ia, sweep_a), (ib, sweep_b)] {
+            if fast(i) && (1.0 - t / dt) * sweep > slop {
+                first[i] = first[i].min(t);
+            }
+        }
+    }
+    let poses: Vec<(usize, Pose)> = first
+        .iter()
+        .enumerate()
+        .filter(|&(_, &t)| t < dt)
+        .map(|(i, &t)| (i, motion(i).0.pose_at(t)))
+        .collect();
+    for (i, pose) in poses {
+        {
+            let body = &mut state.bodies[i];
+            body.position = pose.transform_point(state.local_com[i]);
+            body.rotation = pose.rotation.normalize();
+        }
+    }
+}
+
 /// Runs the solver over the packed arrays and stores the impulses back into the manifolds.
 pub fn solve_contacts(
-    config: Res<SolverConfig>,
-    gravity: Res<Gravity>,
     mut stats: ResMut<SolverStats>,
     mut state: ResMut<PhysicsState>,
     mut pairs: ResMut<ContactPairs>,
 ) {
     let state = &mut *state;
-    if state.dt <= 0.0 {
-        return;
-    }
+    let config = &state.settings.config;
     *stats = solver::step(
         &mut state.bodies,
         &mut state.contacts,
         &state.pair_ranges,
-        &config,
-        gravity.0,
+        config,
+        state.settings.gravity.0,
         state.dt,
     );
+    stop_at_first_impact(state);
+    let config = &state.settings.config;
     state.steps_since_bound_warning = state.steps_since_bound_warning.saturating_add(1);
     if stats.propagation_bound_hit && state.steps_since_bound_warning >= 60 {
         state.steps_since_bound_warning = 0;
@@ -505,11 +929,21 @@ pub fn solve_contacts(
     state.impacts.clear();
     for (c, &(p, m, k)) in state.contacts.iter().zip(&state.contact_keys) {
         let pair = &mut pairs[p as usize];
-        pair.manifolds[m as usize].points[k as usize].data = ContactImpulse {
-            normal: c.normal_impulse,
-            tangent: c.tangent_impulse,
+        // A non-finite impulse (its bodies' results are non-finite too, and they are
+        // quarantined in `write_back`) is not carried over: warm-started, it would make the
+        // next step non-finite again, and the quarantine would never end.
+        let finite = c.normal_impulse.is_finite()
+            && c.tangent_impulse[0].is_finite()
+            && c.tangent_impulse[1].is_finite();
+        pair.manifolds[m as usize].points[k as usize].data = if finite {
+            ContactImpulse {
+                normal: c.normal_impulse,
+                tangent: c.tangent_impulse,
+            }
+        } else {
+            ContactImpulse::default()
         };
-        if c.separation <= TOUCH_DISTANCE || c.total_impulse > 0.0 {
+        if c.separation <= state.settings.touch_distance || c.total_impulse > 0.0 {
             touching[p as usize] = true;
         }
         let report = match config.impact_messages {
@@ -537,21 +971,22 @@ pub fn solve_contacts(
     }
 }
 
+/// The components [`write_back`] writes, and the name its log lines give.
+type WriteBackData = (
+    &'static mut Transform,
+    Option<&'static mut LinearVelocity>,
+    Option<&'static mut AngularVelocity>,
+    Option<&'static Name>,
+);
+
 /// Writes poses and velocities of moving bodies back to their components. A body whose result
 /// is not finite (finite input that overflowed) is not written: it is quarantined instead, so
 /// no NaN ever reaches a component.
 pub fn write_back(
     mut commands: Commands,
     state: Res<PhysicsState>,
-    mut query: Query<(
-        &mut Transform,
-        Option<&mut LinearVelocity>,
-        Option<&mut AngularVelocity>,
-    )>,
+    mut query: Query<WriteBackData>,
 ) {
-    if state.dt <= 0.0 {
-        return;
-    }
     for ((&entity, body), &local_com) in state
         .entities
         .iter()
@@ -567,11 +1002,15 @@ pub fn write_back(
             && body.angular_velocity.is_finite();
         if !finite {
             let reason = "the step produced a non-finite state (input too large?)".to_string();
-            log::error!("impact3d: body {entity} is left out of the physics step: {reason}");
+            let name = query.get(entity).ok().and_then(|(_, _, _, name)| name);
+            log::error!(
+                "impact3d: {} is left out of the physics step: {reason}",
+                body_label(entity, name)
+            );
             commands.entity(entity).insert(Quarantined { reason });
             continue;
         }
-        let Ok((mut transform, linear, angular)) = query.get_mut(entity) else {
+        let Ok((mut transform, linear, angular, _)) = query.get_mut(entity) else {
             continue;
         };
         let translation = body.position - body.rotation * local_com;
@@ -608,7 +1047,6 @@ pub fn send_messages(
 /// slow for the configured time, zeroing its velocities.
 pub fn update_sleep(
     mut commands: Commands,
-    config: Res<SleepConfig>,
     state: Res<PhysicsState>,
     pairs: Res<ContactPairs>,
     mut bodies: Query<(
@@ -618,6 +1056,7 @@ pub fn update_sleep(
     )>,
     sleepers: Query<(Entity, &Sleeping)>,
 ) {
+    let config = &state.settings.sleep;
     if !config.enabled {
         for (entity, _) in &sleepers {
             commands.entity(entity).remove::<Sleeping>();
@@ -641,9 +1080,6 @@ pub fn update_sleep(
         if woken.contains(&island_of(entity, marker)) {
             commands.entity(entity).remove::<Sleeping>();
         }
-    }
-    if state.dt <= 0.0 {
-        return;
     }
     let mut timers: Vec<Option<f32>> = vec![None; state.bodies.len()];
     for (i, (body, slot)) in state.bodies.iter().zip(timers.iter_mut()).enumerate() {

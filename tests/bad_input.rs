@@ -221,9 +221,10 @@ fn fixed_input_leaves_quarantine() {
     );
 }
 
-/// Finite but absurd input that overflows in the step (two balls closing at 3e38 m/s each: the
-/// relative velocity is infinite): the non-finite result is never written; both are
-/// quarantined instead, and a body elsewhere carries on untouched.
+/// Finite but absurd input that would overflow in the step (two balls closing at 3e38 m/s each:
+/// the relative velocity is infinite): both are quarantined before the solve (their speed is
+/// above `dynamics::validation::MAX_LINEAR_SPEED`), nothing non-finite is ever written, a body
+/// elsewhere carries on untouched, and both rejoin on the step after their speeds are fixed.
 #[test]
 fn overflowing_velocity_never_writes_non_finite_values() {
     let mut app = headless_app(60.0);
@@ -261,4 +262,12 @@ fn overflowing_velocity_never_writes_non_finite_values() {
     assert!(app.world().get::<Quarantined>(left).is_some());
     assert!(app.world().get::<Quarantined>(right).is_some());
     assert_eq!(velocity(&app, bystander), Vec3::Y);
+    for e in [left, right] {
+        app.world_mut()
+            .entity_mut(e)
+            .insert(LinearVelocity(Vec3::ZERO));
+    }
+    app.update();
+    assert!(app.world().get::<Quarantined>(left).is_none());
+    assert!(app.world().get::<Quarantined>(right).is_none());
 }

@@ -50,6 +50,108 @@ pub fn sweep_and_prune(aabbs: &[Aabb], pairs: &mut Vec<(u32, u32)>, order: &mut 
     pairs.sort_unstable();
 }
 
+/// The pairs of overlapping boxes of which at least one is `active`, as [`sweep_and_prune`]
+/// would give them filtered to those: `(i, j)` with `i < j`, sorted. Only the active boxes are
+/// swept: forward as in `sweep_and_prune`, and backward over the inactive boxes that start at
+/// most the widest box's width before them. Inactive boxes (sleeping bodies, unchanged static
+/// ones) cost nothing beyond the sort, and nothing at all when no box is active.
+///
+/// # Examples
+///
+/// ```
+/// use bevy::math::Vec3;
+/// use parry3d::bounding_volume::Aabb;
+/// use impact3d::collision::broad_phase::pairs_with_active;
+///
+/// let boxes = [
+///     Aabb::new(Vec3::ZERO, Vec3::ONE),
+///     Aabb::new(Vec3::splat(0.5), Vec3::splat(1.5)),
+///     Aabb::new(Vec3::splat(1.2), Vec3::splat(2.0)),
+/// ];
+/// let (mut pairs, mut order) = (Vec::new(), Vec::new());
+/// pairs_with_active(&boxes, &[false, false, true], &mut pairs, &mut order);
+/// assert_eq!(pairs, vec![(1, 2)]);
+/// pairs_with_active(&boxes, &[false; 3], &mut pairs, &mut order);
+/// assert!(pairs.is_empty());
+/// ```
+pub fn pairs_with_active(
+    aabbs: &[Aabb],
+    active: &[bool],
+    pairs: &mut Vec<(u32, u32)>,
+    order: &mut Vec<u32>,
+) {
+    pairs.clear();
+    if !active.iter().any(|&a| a) {
+        return;
+    }
+    let axis = sweep_axis(aabbs);
+    let unbounded = |b: &Aabb| {
+        (b.maxs - b.mins).max_element().partial_cmp(&1e6) != Some(std::cmp::Ordering::Less)
+    };
+    // Unbounded boxes (a half-space's) are checked against every active box directly; the
+    // others are sorted by their lower bound on the axis.
+    order.clear();
+    order.extend((0..aabbs.len() as u32).filter(|&i| !unbounded(&aabbs[i as usize])));
+    order.sort_unstable_by(|&i, &j| {
+        aabbs[i as usize].mins[axis]
+            .total_cmp(&aabbs[j as usize].mins[axis])
+            .then(i.cmp(&j))
+    });
+    let widest = order
+        .iter()
+        .map(|&i| aabbs[i as usize].maxs[axis] - aabbs[i as usize].mins[axis])
+        .fold(0.0f32, f32::max);
+    let huge: Vec<u32> = (0..aabbs.len() as u32)
+        .filter(|&i| unbounded(&aabbs[i as usize]))
+        .collect();
+    let any_inactive = active.iter().any(|&a| !a);
+    let push = |pairs: &mut Vec<(u32, u32)>, i: u32, j: u32| pairs.push((i.min(j), i.max(j)));
+    for &h in &huge {
+        let a = &aabbs[h as usize];
+        for j in 0..aabbs.len() as u32 {
+            // An unbounded box pairs with the boxes it overlaps when either is active; pairs
+            // of two unbounded boxes are found once, from the smaller index.
+            let both_huge = unbounded(&aabbs[j as usize]);
+            if j != h
+                && (active[h as usize] || active[j as usize])
+                && (!both_huge || h < j)
+                && overlaps(a, &aabbs[j as usize])
+            {
+                push(pairs, h, j);
+            }
+        }
+    }
+    for (k, &i) in order.iter().enumerate() {
+        if !active[i as usize] {
+            continue;
+        }
+        let a = &aabbs[i as usize];
+        // Forward, as in `sweep_and_prune`: every box starting before this one ends.
+        for &j in &order[k + 1..] {
+            let b = &aabbs[j as usize];
+            if b.mins[axis] > a.maxs[axis] {
+                break;
+            }
+            if overlaps(a, b) {
+                push(pairs, i, j);
+            }
+        }
+        // Backward, for the inactive boxes that start before this one (an active one there
+        // found this box in its own forward sweep): they start at most `widest` earlier.
+        if any_inactive {
+            let from = a.mins[axis] - widest;
+            let start = order[..k].partition_point(|&j| aabbs[j as usize].mins[axis] < from);
+            for &j in &order[start..k] {
+                if !active[j as usize] && overlaps(a, &aabbs[j as usize]) {
+                    push(pairs, i, j);
+                }
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+}
+
 fn overlaps(a: &Aabb, b: &Aabb) -> bool {
     (0..3).all(|k| a.mins[k] <= b.maxs[k] && b.mins[k] <= a.maxs[k])
 }
@@ -121,5 +223,19 @@ mod tests {
             pairs.len() > 300,
             "the unbounded box pairs with all 300 others"
         );
+        // With a third of the boxes active (the unbounded one among them, and not), the active
+        // sweep gives exactly the all-pairs result filtered to pairs with an active box.
+        for unbounded_active in [false, true] {
+            let mut active: Vec<bool> = (0..boxes.len()).map(|i| i % 3 == 0).collect();
+            active[300] = unbounded_active;
+            let mut got = Vec::new();
+            pairs_with_active(&boxes, &active, &mut got, &mut order);
+            let expected: Vec<_> = brute
+                .iter()
+                .copied()
+                .filter(|&(i, j)| active[i as usize] || active[j as usize])
+                .collect();
+            assert_eq!(got, expected);
+        }
     }
 }

@@ -1,15 +1,19 @@
 //! The `Collider` component: a parry3d shape attached at the body's origin.
 
 use bevy::prelude::*;
-use parry3d::shape::{ShapeType, SharedShape};
+use parry3d::shape::{ShapeType, SharedShape, TriMeshFlags};
+
+use crate::dynamics::validation::{MAX_LENGTH, within};
 
 /// The collision shape of a body, placed at the entity's `Transform` (bodies are top-level
 /// entities; scale is ignored). Mass and inertia come from its volume times
 /// [`Density`](crate::dynamics::Density) unless [`Mass`](crate::dynamics::Mass) overrides them.
 ///
 /// Constructors that cannot fail in their signature (`sphere`, `cuboid`, `capsule`, `trimesh`,
-/// `half_space`) still accept bad input: such a collider carries the reason, and the body that
-/// uses it is quarantined with a logged error naming the entity instead of entering the solve.
+/// `half_space`) still accept bad input (empty, degenerate, non-finite or out of range, sizes
+/// above [`MAX_LENGTH`]): such a collider carries the reason, and the body that uses it is
+/// quarantined with a logged error naming the entity instead of entering the solve. No
+/// constructor panics.
 ///
 /// # Examples
 ///
@@ -74,16 +78,24 @@ impl Collider {
     /// `radius` m.
     pub fn capsule(radius: f32, half_height: f32) -> Self {
         let error = positive("capsule radius", radius).or_else(|| {
-            (!(half_height.is_finite() && half_height >= 0.0))
-                .then(|| format!("capsule half height must be finite and >= 0, got {half_height}"))
+            (!(0.0..=MAX_LENGTH).contains(&half_height)).then(|| {
+                format!(
+                    "capsule half height must be >= 0 and <= {MAX_LENGTH:e} m, got {half_height}"
+                )
+            })
         });
         Self::checked(|| SharedShape::capsule_y(half_height, radius), error)
     }
 
     /// The convex hull of `points` (local frame, m). `None` when the hull is degenerate
-    /// (fewer than four points off a common plane) or a point is not finite.
+    /// (fewer than four points off a common plane), or a point is not finite or farther than
+    /// [`MAX_LENGTH`] from the origin.
     pub fn convex_hull(points: &[Vec3]) -> Option<Self> {
-        if points.iter().any(|p| !p.is_finite()) {
+        if points.len() < 4
+            || points
+                .iter()
+                .any(|p| !within(p.abs().max_element(), MAX_LENGTH))
+        {
             return None;
         }
         let shape = SharedShape::convex_hull(points)?;
@@ -92,13 +104,55 @@ impl Collider {
     }
 
     /// A triangle mesh (local frame, m), for static bodies: it has no volume, so a dynamic body
-    /// using it is quarantined. A mesh parry rejects (no triangles, bad indices) gives a collider
-    /// that carries the error.
+    /// using it is quarantined.
+    ///
+    /// Duplicate vertices are merged and internal edges fixed (parry's
+    /// `TriMeshFlags::FIX_INTERNAL_EDGES`): a body sliding across the seam between two
+    /// triangles of a flat surface gets the surface's normal, not a bump from the edge.
+    /// Degenerate triangles (zero area, or repeating a vertex) are dropped. A mesh with no
+    /// vertices, an index out of range, a non-finite vertex or one farther than [`MAX_LENGTH`],
+    /// or no triangle left, gives a collider that carries the error.
     pub fn trimesh(vertices: Vec<Vec3>, indices: Vec<[u32; 3]>) -> Self {
-        if vertices.iter().any(|v| !v.is_finite()) {
-            return Self::invalid("trimesh has a non-finite vertex".to_string());
+        if vertices.is_empty() {
+            return Self::invalid("trimesh has no vertices".to_string());
         }
-        match SharedShape::trimesh(vertices, indices) {
+        if let Some((i, v)) = vertices
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !within(v.abs().max_element(), MAX_LENGTH))
+        {
+            return Self::invalid(format!(
+                "trimesh vertex {i} = {v} is not finite or farther than {MAX_LENGTH:e} m"
+            ));
+        }
+        let n = vertices.len();
+        if let Some((t, tri)) = indices
+            .iter()
+            .enumerate()
+            .find(|(_, tri)| tri.iter().any(|&i| i as usize >= n))
+        {
+            return Self::invalid(format!(
+                "trimesh triangle {t} = {tri:?} indexes past its {n} vertices"
+            ));
+        }
+        let indices: Vec<[u32; 3]> = indices
+            .into_iter()
+            .filter(|&[a, b, c]| {
+                let (a, b, c) = (
+                    vertices[a as usize],
+                    vertices[b as usize],
+                    vertices[c as usize],
+                );
+                // Zero area in f32: the cross product of two edges vanishes against their
+                // lengths (relative 1e-6, about eight ulps of the product).
+                let cross = (b - a).cross(c - a).length();
+                cross > 1e-6 * (b - a).length() * (c - a).length()
+            })
+            .collect();
+        if indices.is_empty() {
+            return Self::invalid("trimesh has no triangle of non-zero area".to_string());
+        }
+        match SharedShape::trimesh_with_flags(vertices, indices, TriMeshFlags::FIX_INTERNAL_EDGES) {
             Ok(shape) => Collider { shape, error: None },
             Err(e) => Self::invalid(format!("trimesh rejected: {e:?}")),
         }
@@ -141,6 +195,6 @@ impl Collider {
 }
 
 fn positive(what: &str, value: f32) -> Option<String> {
-    (!(value.is_finite() && value > 0.0))
-        .then(|| format!("{what} must be finite and > 0, got {value}"))
+    (!(value > 0.0 && value <= MAX_LENGTH))
+        .then(|| format!("{what} must be > 0 and <= {MAX_LENGTH:e} m, got {value:?}"))
 }

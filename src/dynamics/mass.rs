@@ -2,10 +2,15 @@
 
 use bevy::prelude::*;
 
+use super::validation::{MAX_INVERSE_INERTIA, MAX_LENGTH, MAX_MASS, MIN_MASS, within};
 use crate::collision::Collider;
 
 /// Mass properties the plugin derives from [`Collider`], [`Density`](super::Density) and
-/// [`Mass`](super::Mass) whenever one of them changes. Read it; do not write it.
+/// [`Mass`](super::Mass) whenever one of them changes.
+///
+/// Read-only: the plugin owns it. A value written into it (by a system, a command or
+/// reflection) is discarded at the start of the next step, recomputed from the collider,
+/// density and mass with a warning naming the entity, so it never reaches the solve.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub struct ComputedMass {
     /// `1/m` in 1/kg.
@@ -48,8 +53,10 @@ impl ComputedMass {
             );
         }
         if let Some(m) = mass {
-            if !(m.is_finite() && m > 0.0) {
-                return Err(format!("mass must be finite and > 0, got {m}"));
+            if !(MIN_MASS..=MAX_MASS).contains(&m) {
+                return Err(format!(
+                    "mass must be in [{MIN_MASS:e}, {MAX_MASS:e}] kg, got {m:?}"
+                ));
             }
         } else if !(density.is_finite() && density > 0.0) {
             return Err(format!("density must be finite and > 0, got {density}"));
@@ -68,6 +75,12 @@ impl ComputedMass {
                 props.inv_mass, props.inv_principal_inertia
             ));
         }
+        if mass.is_none() && !(MIN_MASS..=MAX_MASS).contains(&(1.0 / props.inv_mass)) {
+            return Err(format!(
+                "density {density:?} gives a mass of {:?} kg, outside [{MIN_MASS:e}, {MAX_MASS:e}] kg",
+                1.0 / props.inv_mass
+            ));
+        }
         let inv = props.inv_principal_inertia;
         let isotropic = (inv.x - inv.y).abs() <= 1e-6 * inv.x.abs()
             && (inv.x - inv.z).abs() <= 1e-6 * inv.x.abs();
@@ -76,12 +89,50 @@ impl ComputedMass {
         } else {
             props.reconstruct_inverse_inertia_matrix()
         };
-        Ok(ComputedMass {
+        let computed = ComputedMass {
             inverse_mass: props.inv_mass,
             local_center_of_mass: props.local_com,
             local_inverse_inertia,
             isotropic,
-        })
+        };
+        computed.check()?;
+        Ok(computed)
+    }
+
+    /// Checks that these mass properties are in the range the step handles without overflow
+    /// (see [`validation`](super::validation)): `1/m` in `[1/MAX_MASS, 1/MIN_MASS]`, the
+    /// inverse inertia finite with non-negative diagonal and entries at most
+    /// [`MAX_INVERSE_INERTIA`], the centre of mass within [`MAX_LENGTH`] of the origin.
+    pub fn check(&self) -> Result<(), String> {
+        let inv = self.local_inverse_inertia;
+        let diagonal = Vec3::new(inv.x_axis.x, inv.y_axis.y, inv.z_axis.z);
+        let largest = inv.to_cols_array().iter().fold(0.0f32, |m, x| {
+            if x.abs() > m || x.is_nan() {
+                x.abs()
+            } else {
+                m
+            }
+        });
+        if !(1.0 / MAX_MASS..=1.0 / MIN_MASS).contains(&self.inverse_mass) {
+            Err(format!(
+                "inverse mass {} 1/kg is outside [{:e}, {:e}]",
+                self.inverse_mass,
+                1.0 / MAX_MASS,
+                1.0 / MIN_MASS
+            ))
+        } else if !within(largest, MAX_INVERSE_INERTIA) || diagonal.min_element() < 0.0 {
+            Err(format!(
+                "inverse inertia {inv} is not finite, has a negative diagonal or an entry above \
+                 {MAX_INVERSE_INERTIA:e}"
+            ))
+        } else if !within(self.local_center_of_mass.length(), MAX_LENGTH) {
+            Err(format!(
+                "centre of mass {} is not finite or farther than {MAX_LENGTH:e} m",
+                self.local_center_of_mass
+            ))
+        } else {
+            Ok(())
+        }
     }
 
     /// World-space inverse inertia `R I_body^-1 R^T` for a body at `rotation`, with the rows and

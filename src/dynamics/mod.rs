@@ -4,6 +4,7 @@ pub mod mass;
 pub mod rigid_body;
 pub mod sleep;
 pub mod solver;
+pub mod validation;
 
 pub use mass::ComputedMass;
 pub use rigid_body::{
@@ -12,6 +13,7 @@ pub use rigid_body::{
 };
 pub use sleep::{SleepConfig, SleepTimer, Sleeping};
 pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
+pub use validation::PhysicsLengthUnit;
 
 use bevy::prelude::*;
 
@@ -29,6 +31,8 @@ impl Plugin for DynamicsPlugin {
             .init_resource::<SolverConfig>()
             .init_resource::<SolverStats>()
             .init_resource::<SleepConfig>()
+            .init_resource::<validation::PhysicsLengthUnit>()
+            .register_type::<validation::PhysicsLengthUnit>()
             .register_type::<Sleeping>()
             .register_type::<SleepTimer>()
             .register_type::<SleepConfig>()

@@ -4,7 +4,7 @@
 
 use bevy::math::{Quat, Vec3};
 
-use super::body::{SolverBody, pair_mut};
+use super::body::{Motion, SolverBody, pair_mut};
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.
 /// Built by the narrow phase with [`ContactConstraint::new`], completed by [`prepare_contacts`].
@@ -119,7 +119,15 @@ impl ContactConstraint {
         let linear = a.inverse_mass + b.inverse_mass;
         let angular = self.rn_a.dot(self.ang_a) + self.rn_b.dot(self.ang_b);
         // Relative 1e-7 is f32 rounding of r x n for r parallel to n: treat it as exactly zero.
-        self.angular = angular > 1e-7 * linear.max(f32::MIN_POSITIVE);
+        // A turning kinematic body cannot be turned by the contact (no angular term in K), but
+        // its rotation still moves the contact point: `w . (r x n)` must stay in the normal
+        // velocity, or a spinning kinematic bar passes through a ball without pushing it.
+        let driven = |body: &SolverBody, rn: Vec3| {
+            body.motion == Motion::Kinematic && body.angular_velocity.dot(rn) != 0.0
+        };
+        self.angular = angular > 1e-7 * linear.max(f32::MIN_POSITIVE)
+            || driven(a, self.rn_a)
+            || driven(b, self.rn_b);
         if !self.angular {
             self.rn_a = Vec3::ZERO;
             self.rn_b = Vec3::ZERO;
@@ -282,7 +290,6 @@ pub fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) -> b
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::solver::body::Motion;
     use crate::impulse::{ImpulseBody, inverse_effective_mass};
     use bevy::math::{BVec3, Mat3};
 
