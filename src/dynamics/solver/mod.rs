@@ -416,11 +416,16 @@ fn rigid_substeps(
             }
         }
     }
-    // An impact's impulse does not recur: it is not kept for the next step's warm start, where
-    // an unconverged iteration would apply it again (one iteration on a 3-ball cradle gained
-    // 138% energy that way). Resting contacts keep theirs. (Since restitution targets are
-    // taken before gravity, a resting contact no longer counts as an impact at large steps.)
-    for c in contacts.iter_mut().filter(|c| c.impact) {
+    // A bounce's impulse does not recur: an impact with restitution is not kept for the next
+    // step's warm start, where an unconverged iteration would apply it again (one iteration on
+    // a 3-ball cradle gained 138% energy that way). Resting contacts, and inelastic impacts,
+    // whose impulse is what holds the bodies together next step, keep theirs. (Since
+    // restitution targets are taken before gravity, a resting contact no longer counts as an
+    // impact at large steps.)
+    for c in contacts
+        .iter_mut()
+        .filter(|c| c.impact && c.restitution > 0.0)
+    {
         c.normal_impulse = 0.0;
     }
 }
