@@ -314,6 +314,18 @@ pub fn integrate_positions(bodies: &mut [SolverBody], gravity: Vec3, h: f32) {
         body.position += dp;
         body.delta_position += dp;
 
+        // The rotation owed to an impact turns the body without a torque: its spin turns with
+        // it, so that the spin in the body's frame, and with it the kinetic energy, is what the
+        // impact left. (Turning the body under a fixed world spin changes `w . I w` for a body
+        // whose inertia is not isotropic: a thin capsule whose spin an impact raised tenfold
+        // gained 2 kJ, 22% of its world's energy, from this offset alone.)
+        if turn != Vec3::ZERO
+            && body.motion == Motion::Dynamic
+            && !body.isotropic
+            && !body.locked_rotation.any()
+        {
+            body.angular_velocity = Quat::from_scaled_axis(turn) * body.angular_velocity;
+        }
         let rotation_vector = body.angular_velocity * h + turn;
         if rotation_vector != Vec3::ZERO {
             let dq = Quat::from_scaled_axis(rotation_vector);

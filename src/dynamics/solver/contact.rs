@@ -260,26 +260,27 @@ pub fn warm_start(bodies: &mut [SolverBody], contacts: &[ContactConstraint]) {
     }
 }
 
-/// Coulomb friction on one contact: each tangent row is solved for zero slip, then the
-/// accumulated friction impulse is clamped to the disc of radius `friction * normal_impulse`.
-/// Returns whether any velocity changed.
+/// Coulomb friction on one contact: Gauss-Seidel over its two tangent rows, each solved for
+/// zero slip on the current velocities and clamped to its slice of the disc of radius
+/// `friction * normal_impulse` (given the other tangent's impulse). Returns whether any
+/// velocity changed.
+///
+/// Each row update is the exact minimum of the kinetic energy along that row over an interval,
+/// so friction never adds energy. Solving both tangents from the same velocities and then
+/// clamping, as before, overshoots where the rows are coupled through the body's rotation (a
+/// thin capsule, whose inertia differs greatly between axes): a 45 kg capsule landing at 9 m/s
+/// gained 2 kJ of spin that way (the energy property test, seed 138).
 pub fn solve_friction(bodies: &mut [SolverBody], c: &mut ContactConstraint) -> bool {
-    let limit = c.friction * c.normal_impulse;
-    let old = c.tangent_impulse;
-    let mut new = old;
-    for (k, impulse) in new.iter_mut().enumerate() {
-        *impulse -= c.tangent_mass[k] * c.tangent_velocity(bodies, k);
-    }
-    let len = (new[0] * new[0] + new[1] * new[1]).sqrt();
-    if len > limit {
-        let s = if len > 0.0 { limit / len } else { 0.0 };
-        new = [new[0] * s, new[1] * s];
-    }
-    c.tangent_impulse = new;
+    let limit = c.friction * c.normal_impulse.max(0.0);
     let mut changed = false;
     for k in 0..2 {
-        let delta = new[k] - old[k];
+        let other = c.tangent_impulse[1 - k];
+        let room = (limit * limit - other * other).max(0.0).sqrt();
+        let old = c.tangent_impulse[k];
+        let new = (old - c.tangent_mass[k] * c.tangent_velocity(bodies, k)).clamp(-room, room);
+        let delta = new - old;
         if delta != 0.0 {
+            c.tangent_impulse[k] = new;
             c.apply_tangent_impulse(bodies, k, delta);
             changed = true;
         }
