@@ -452,6 +452,14 @@ impl Pour {
         }
     }
 
+    /// Height of the highest layer's centres, m: the pour's largest free-fall speed is
+    /// `sqrt(2 g top)`.
+    pub fn top(&self) -> f32 {
+        let side = self.side();
+        let layers = self.count.div_ceil(side * side).max(1);
+        self.first_height + (layers - 1) as f32 * self.layer_pitch
+    }
+
     /// Grid columns per row.
     fn side(&self) -> usize {
         let wanted = ((self.count as f32).sqrt().ceil() as usize).max(1);
@@ -482,9 +490,8 @@ pub struct Spawned {
 /// Spawns `pour` (see [`Pour`]) and returns its bodies with the box's inner half width.
 pub fn pour_into(world: &mut World, pour: &Pour) -> Spawned {
     let side = pour.side();
-    let layers = pour.count.div_ceil(side * side).max(1);
     let half = pour.half_width.unwrap_or(side as f32 * 1.2 * pour.size);
-    let top = pour.first_height + (layers - 1) as f32 * pour.layer_pitch;
+    let top = pour.top();
     let wall = if pour.half_width.is_none() && pour.bodies == PourBodies::Spheres {
         // The lab's published pour: its original wall height.
         4.0 + pour.count as f32 / (side * side) as f32

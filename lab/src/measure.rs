@@ -5,7 +5,8 @@
 //! for Rapier one `PhysicsPipeline::step`. Building the scene and reading states for the
 //! metrics happen between steps and are not timed. The first steps of a run are a warm-up and
 //! are left out; the reported figure is the median of the rest. Short scenes are run again
-//! from the start until enough steps have been timed.
+//! from the start until enough steps have been timed; a run that has blown up (see
+//! [`crate::scenes::Probe::hopeless`]) is stopped where it is, timed over the steps it ran.
 
 use std::time::Instant;
 
@@ -67,8 +68,11 @@ pub fn run(scene: &Scene, spec: &SceneSpec, config: &RunConfig) -> RunResult {
     let mut probe = Probe::new(scene, spec);
     let mut states = Vec::new();
     let mut times = Vec::with_capacity(steps.max(MIN_TIMED_STEPS));
+    let mut stopped = false;
     for repeat in 0..MAX_REPEATS {
-        if repeat > 0 && (times.len() >= MIN_TIMED_STEPS || times.iter().sum::<f64>() >= ENOUGH_MS)
+        if stopped
+            || repeat > 0
+                && (times.len() >= MIN_TIMED_STEPS || times.iter().sum::<f64>() >= ENOUGH_MS)
         {
             break;
         }
@@ -83,6 +87,12 @@ pub fn run(scene: &Scene, spec: &SceneSpec, config: &RunConfig) -> RunResult {
             if repeat == 0 && (dense || k % SAMPLE_EVERY == 0 || k == steps) {
                 engine.read(&mut states);
                 probe.observe(k as f32 * dt, &states);
+                // A run that blew up is stopped: its error is already decided, and a blown-up
+                // pile's steps grow without bound (issue 8: 2.7 s a step at 409,000 contacts).
+                if probe.hopeless() {
+                    stopped = true;
+                    break;
+                }
             }
         }
     }

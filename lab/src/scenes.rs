@@ -21,38 +21,64 @@ pub enum Kind {
     Stability,
     /// Many bodies: the point is the time per step.
     Throughput,
+    /// Issue 8's stress family: piles, walls, columns and small cases that must not gain
+    /// energy, run for 20 s at each engine's defaults at 60 Hz only.
+    Stress,
 }
 
 /// A collision shape, in the body's frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
     /// A sphere of this radius, m.
     Ball(f32),
     /// A box with these half extents, m.
     Cuboid(Vec3),
+    /// A capsule along the local y axis: radius and half height of its cylinder, m.
+    Capsule(f32, f32),
+    /// The convex hull of these points, m.
+    Hull(Vec<Vec3>),
+    /// A triangle mesh (static bodies only): vertices, m, and triangles.
+    TriMesh(Vec<Vec3>, Vec<[u32; 3]>),
     /// The half-space behind the plane through the body's origin with this outward normal.
     HalfSpace(Vec3),
 }
 
 impl Shape {
-    /// Volume, m^3 (zero for a half-space).
+    /// Volume, m^3 (zero for a half-space or a mesh).
     pub fn volume(&self) -> f32 {
-        match *self {
+        match self {
             Shape::Ball(r) => 4.0 / 3.0 * std::f32::consts::PI * r * r * r,
             Shape::Cuboid(h) => 8.0 * h.x * h.y * h.z,
-            Shape::HalfSpace(_) => 0.0,
+            Shape::Capsule(r, hh) => std::f32::consts::PI * r * r * (2.0 * hh + 4.0 / 3.0 * r),
+            Shape::Hull(points) => Collider::convex_hull(points)
+                .map_or(0.0, |c| 1.0 / c.shape().mass_properties(1.0).inv_mass),
+            Shape::TriMesh(..) | Shape::HalfSpace(_) => 0.0,
         }
     }
 
-    /// Principal moments of inertia of a body of `mass` kg with this shape, body frame.
-    pub fn inertia(&self, mass: f32) -> Vec3 {
-        match *self {
-            Shape::Ball(r) => Vec3::splat(0.4 * mass * r * r),
+    /// Inertia tensor of a body of `mass` kg with this shape, body frame, about its centre of
+    /// mass (a hull's is off the body's origin; the energy metric neglects that offset).
+    pub fn inertia(&self, mass: f32) -> Mat3 {
+        match self {
+            Shape::Ball(r) => Mat3::from_diagonal(Vec3::splat(0.4 * mass * r * r)),
             Shape::Cuboid(h) => {
-                let s = h * h * 4.0;
-                Vec3::new(s.y + s.z, s.x + s.z, s.x + s.y) * (mass / 12.0)
+                let s = *h * *h * 4.0;
+                Mat3::from_diagonal(Vec3::new(s.y + s.z, s.x + s.z, s.x + s.y) * (mass / 12.0))
             }
-            Shape::HalfSpace(_) => Vec3::ZERO,
+            Shape::Capsule(r, hh) => {
+                let collider = Collider::capsule(*r, *hh);
+                let volume = self.volume();
+                collider
+                    .shape()
+                    .mass_properties(mass / volume)
+                    .reconstruct_inertia_matrix()
+            }
+            Shape::Hull(points) => Collider::convex_hull(points).map_or(Mat3::ZERO, |c| {
+                c.shape()
+                    .mass_properties(mass / self.volume())
+                    .reconstruct_inertia_matrix()
+            }),
+            Shape::TriMesh(..) | Shape::HalfSpace(_) => Mat3::ZERO,
         }
     }
 }
@@ -95,8 +121,8 @@ impl SceneSpec {
     ///
     /// # Panics
     ///
-    /// On a kinematic body or a collider that is not a sphere, box or half-space: no scene of
-    /// the lab uses them.
+    /// On a kinematic body or a collider that is not a sphere, box, capsule along y, convex
+    /// hull, triangle mesh or half-space: no scene of the lab uses them.
     pub fn from_world(world: &mut World) -> Self {
         let gravity = world.resource::<Gravity>().0;
         let order = world.resource::<SpawnOrder>().0.clone();
@@ -122,10 +148,21 @@ impl SceneSpec {
                     Shape::Ball(ball.radius)
                 } else if let Some(cuboid) = shape.as_cuboid() {
                     Shape::Cuboid(cuboid.half_extents)
+                } else if let Some(capsule) = shape.as_capsule() {
+                    let (a, b) = (capsule.segment.a, capsule.segment.b);
+                    assert!(
+                        a.x == 0.0 && a.z == 0.0 && b.x == 0.0 && b.z == 0.0 && a.y == -b.y,
+                        "the lab's capsules lie along y, centred"
+                    );
+                    Shape::Capsule(capsule.radius, b.y.abs())
+                } else if let Some(hull) = shape.as_convex_polyhedron() {
+                    Shape::Hull(hull.points().to_vec())
+                } else if let Some(mesh) = shape.as_trimesh() {
+                    Shape::TriMesh(mesh.vertices().to_vec(), mesh.indices().to_vec())
                 } else if let Some(half_space) = shape.as_halfspace() {
                     Shape::HalfSpace(half_space.normal)
                 } else {
-                    panic!("the lab supports spheres, boxes and half-spaces only")
+                    panic!("the lab supports spheres, boxes, capsules, hulls, meshes and half-spaces only")
                 };
                 assert!(
                     *body != RigidBody::Kinematic,
@@ -133,8 +170,8 @@ impl SceneSpec {
                 );
                 BodySpec {
                     dynamic: body.is_dynamic(),
+                    mass: mass.map_or_else(|| density.0 * shape.volume(), |m| m.0),
                     shape,
-                    mass: mass.map_or(density.0 * shape.volume(), |m| m.0),
                     position: transform.translation,
                     rotation: transform.rotation,
                     linvel: v.0,
@@ -245,6 +282,16 @@ pub enum Check {
     Penetration,
     /// Bodies in free flight. Error: the largest distance from `p0 + v0 t` at the end, m.
     FreeFlight,
+    /// Error: the largest speed of any body over the run divided by `limit` (the scene's
+    /// largest free-fall speed plus the 3 m/s push-out cap; see `tests/stress.rs`), so 1 is
+    /// the most a run may reach.
+    Speed {
+        /// m/s.
+        limit: f32,
+    },
+    /// Error: the largest rise of mechanical energy over its start during the run, relative
+    /// to the start's kinetic energy (0 when it never rises).
+    EnergyRise,
 }
 
 /// One scene of the lab.
@@ -483,6 +530,9 @@ pub fn all(mode: Mode) -> Vec<Scene> {
             unit: "m",
         });
     }
+    if full {
+        scenes.extend(stress_family());
+    }
     let sparse = match mode {
         Mode::Full => 10_000,
         Mode::Quick => 2000,
@@ -501,6 +551,167 @@ pub fn all(mode: Mode) -> Vec<Scene> {
         check: Check::FreeFlight,
         tolerance: 1e-3,
         unit: "m",
+    });
+    scenes
+}
+
+/// Issue 8's stress family (built by [`shared::pour_into`], [`shared::pyramid_with`],
+/// [`shared::column`], [`shared::boxes_on_trimesh`], [`shared::light_against_heavy`] and
+/// [`shared::three_ball_hit`]), 20 s each at each engine's defaults at 60 Hz (the small cases
+/// shorter): the same scenes and criteria as `tests/stress.rs`. Piles: the largest speed
+/// against free fall plus the 3 m/s push-out cap (error 1 is the limit). Walls, pyramids and
+/// columns at rest: the largest displacement, 1 cm (the issue's criterion for the wall's top
+/// cube in 10 s). Light against heavy: the rise of mechanical energy (none allowed beyond
+/// f32 rounding). The three-ball hit: the simultaneous answer.
+fn stress_family() -> Vec<Scene> {
+    type Builder = fn(&mut World);
+    use shared::{Pour, PourBodies};
+    let limit = |top: f32| (2.0 * 9.81 * top).sqrt() + SolverConfig::default().max_push_out_speed;
+    let mut scenes = Vec::new();
+    let pours = [
+        ("spheres1000_friction", 1000, PourBodies::Spheres, 1.0, 0.5),
+        (
+            "spheres1000_frictionless",
+            1000,
+            PourBodies::Spheres,
+            1.0,
+            0.0,
+        ),
+        (
+            "spheres1000_dense_friction",
+            1000,
+            PourBodies::Spheres,
+            1000.0,
+            0.5,
+        ),
+        (
+            "spheres1000_dense_frictionless",
+            1000,
+            PourBodies::Spheres,
+            1000.0,
+            0.0,
+        ),
+        ("spheres4000_friction", 4000, PourBodies::Spheres, 1.0, 0.5),
+        (
+            "spheres4000_frictionless",
+            4000,
+            PourBodies::Spheres,
+            1000.0,
+            0.0,
+        ),
+        ("boxes1000_friction", 1000, PourBodies::Boxes, 1.0, 0.5),
+        (
+            "boxes1000_frictionless",
+            1000,
+            PourBodies::Boxes,
+            1000.0,
+            0.0,
+        ),
+        ("mixed1000_friction", 1000, PourBodies::Mixed, 1000.0, 0.5),
+    ];
+    for (name, count, bodies, density, friction) in pours {
+        let pour = Pour::walled_box(count, bodies, density, friction);
+        scenes.push(Scene {
+            name,
+            kind: Kind::Stress,
+            description: format!(
+                "issue 8: {count} {bodies:?} (size 0.5 m, density {density}, friction {friction}) poured into a 21 m box; error = largest speed / (free fall + 3 m/s)"
+            ),
+            build: Box::new(move |w| {
+                shared::pour_into(w, &pour);
+            }),
+            duration: 20.0,
+            check: Check::Speed { limit: limit(pour.top()) },
+            tolerance: 1.0,
+            unit: "relative",
+        });
+    }
+    let standing: [(&'static str, &str, Builder); 4] = [
+        (
+            "wall20",
+            "2D pyramid wall of 210 cubes (base 20), friction 0.5",
+            |w| {
+                shared::pyramid_with(w, 20, false, 0.5);
+            },
+        ),
+        (
+            "pyramid3d8",
+            "3D pyramid of 204 cubes (base 8), friction 0.5",
+            |w| {
+                shared::pyramid_with(w, 8, true, 0.5);
+            },
+        ),
+        (
+            "column20_friction",
+            "column of 20 cubes, friction 0.5",
+            |w| {
+                shared::column(w, 20, 0.5, 1.0);
+            },
+        ),
+        (
+            "column100_alternating",
+            "column of 100 cubes alternating 1 kg and 1000 kg",
+            |w| {
+                shared::column(w, 100, 0.0, 1000.0);
+            },
+        ),
+    ];
+    for (name, what, build) in standing {
+        scenes.push(Scene {
+            name,
+            kind: Kind::Stress,
+            description: format!("issue 8: {what}, at rest, 20 s; error = largest displacement, m"),
+            build: Box::new(build),
+            duration: 20.0,
+            check: Check::Drift,
+            tolerance: 0.01,
+            unit: "m",
+        });
+    }
+    scenes.push(Scene {
+        name: "trimesh_boxes",
+        kind: Kind::Stress,
+        description: "issue 8: 200 cubes dropped on a bumpy static trimesh, friction 0.5; error = largest speed / (free fall + 3 m/s)".into(),
+        build: Box::new(|w| {
+            shared::boxes_on_trimesh(w, 200, 0.5);
+        }),
+        duration: 20.0,
+        check: Check::Speed { limit: limit(3.5) },
+        tolerance: 1.0,
+        unit: "relative",
+    });
+    scenes.push(Scene {
+        name: "light_heavy",
+        kind: Kind::Stress,
+        description: "issue 8: a 0.05 kg ball at 5 m/s on the floor hits a floating 5 kg ball, e = 0, no gravity; error = largest rise of mechanical energy / initial kinetic energy".into(),
+        build: Box::new(|w| {
+            shared::light_against_heavy(w);
+        }),
+        duration: 5.0,
+        check: Check::EnergyRise,
+        tolerance: 1e-3,
+        unit: "relative",
+    });
+    let (c, s) = (30f32.to_radians().cos(), 30f32.to_radians().sin());
+    let j = 2.0 * c / (1.0 + 2.0 * c * c);
+    scenes.push(Scene {
+        name: "three_balls",
+        kind: Kind::Stress,
+        description: "issue 8: a ball at 1 m/s strikes two resting balls at +-30 degrees, e = 1; exact (simultaneous): A (-0.2, 0), B (0.6, +-0.3464); error = energy-norm velocity error / 1 m/s".into(),
+        build: Box::new(|w| {
+            shared::three_ball_hit(w);
+        }),
+        duration: 1.0,
+        check: Check::Velocities {
+            expected: vec![
+                Expected { body: 0, linvel: Vec3::new(1.0 - 2.0 * j * c, 0.0, 0.0), angvel: Vec3::ZERO },
+                Expected { body: 1, linvel: Vec3::new(c, s, 0.0) * j, angvel: Vec3::ZERO },
+                Expected { body: 2, linvel: Vec3::new(c, -s, 0.0) * j, angvel: Vec3::ZERO },
+            ],
+            scale: 1.0,
+        },
+        tolerance: 0.01,
+        unit: "relative",
     });
     scenes
 }
@@ -538,7 +749,7 @@ fn rod_answer() -> Expected {
     let r = rotation * Vec3::new(-ROD_HALF.x, -ROD_HALF.y, 0.0);
     let inertia = Shape::Cuboid(ROD_HALF).inertia(mass);
     let rot = Mat3::from_quat(rotation);
-    let inv_inertia = rot * Mat3::from_diagonal(inertia.recip()) * rot.transpose();
+    let inv_inertia = rot * inertia.inverse() * rot.transpose();
     let n = Vec3::Y;
     let rn = r.cross(n);
     let k = 1.0 / mass + rn.dot(inv_inertia * rn);
@@ -598,6 +809,9 @@ pub struct Probe<'a> {
     last: Vec<BodyState>,
     time: f32,
     finite: bool,
+    fastest: f32,
+    energy_peak: f64,
+    kinetic0: f64,
 }
 
 impl<'a> Probe<'a> {
@@ -617,6 +831,7 @@ impl<'a> Probe<'a> {
             check: &scene.check,
             spec,
             energy0: energy(&dynamic, &start, spec.gravity),
+            kinetic0: kinetic(&dynamic, &start),
             dynamic,
             statics: spec.bodies.iter().filter(|b| !b.dynamic).collect(),
             penetration: 0.0,
@@ -624,10 +839,19 @@ impl<'a> Probe<'a> {
             tunnel: 0.0,
             apexes: Vec::new(),
             previous: None,
+            energy_peak: f64::MIN,
             last: start,
             time: 0.0,
             finite: true,
+            fastest: 0.0,
         }
+    }
+
+    /// The run has failed beyond recovery (non-finite, or a speed check more than ten times
+    /// over its limit): [`crate::measure::run`] stops it there, so a blown-up pile does not
+    /// spend hours on millions of contacts.
+    pub fn hopeless(&self) -> bool {
+        !self.finite || matches!(self.check, Check::Speed { limit } if self.fastest > 10.0 * limit)
     }
 
     /// Records the states at time `time` (s).
@@ -645,6 +869,14 @@ impl<'a> Probe<'a> {
         self.penetration = self
             .penetration
             .max(penetration(&self.dynamic, &self.statics, states));
+        for state in states {
+            self.fastest = self.fastest.max(state.linvel.length());
+        }
+        if *self.check == Check::EnergyRise {
+            self.energy_peak =
+                self.energy_peak
+                    .max(energy(&self.dynamic, states, self.spec.gravity));
+        }
         match self.check {
             Check::Apexes { radius, g, .. } => {
                 let ball = states[0];
@@ -695,7 +927,7 @@ impl<'a> Probe<'a> {
                     let (s, b) = (self.last[x.body], self.dynamic[x.body]);
                     let dv = (s.linvel - x.linvel).length_squared();
                     let dw = s.rotation.inverse() * (s.angvel - x.angvel);
-                    let spin = (b.shape.inertia(1.0) * dw * dw).element_sum();
+                    let spin = dw.dot(b.shape.inertia(1.0) * dw);
                     ((dv + spin).sqrt() / scale) as f64
                 })
                 .fold(0.0, f64::max),
@@ -708,6 +940,8 @@ impl<'a> Probe<'a> {
                 .zip(&self.last)
                 .map(|(b, s)| s.position.distance(b.position + b.linvel * self.time) as f64)
                 .fold(0.0, f64::max),
+            Check::Speed { limit } => (self.fastest / limit) as f64,
+            Check::EnergyRise => ((self.energy_peak - self.energy0) / self.kinetic0).max(0.0),
         };
         let energy1 = energy(&self.dynamic, &self.last, self.spec.gravity);
         Metrics {
@@ -719,6 +953,11 @@ impl<'a> Probe<'a> {
     }
 }
 
+/// Kinetic energy of the dynamic bodies, J.
+fn kinetic(bodies: &[&BodySpec], states: &[BodyState]) -> f64 {
+    energy(bodies, states, Vec3::ZERO)
+}
+
 /// Kinetic plus potential energy of the dynamic bodies, J (potential zero at the origin).
 fn energy(bodies: &[&BodySpec], states: &[BodyState], gravity: Vec3) -> f64 {
     bodies
@@ -726,34 +965,38 @@ fn energy(bodies: &[&BodySpec], states: &[BodyState], gravity: Vec3) -> f64 {
         .zip(states)
         .map(|(b, s)| {
             let local_w = s.rotation.inverse() * s.angvel;
-            let rotational = (b.shape.inertia(b.mass) * local_w * local_w).element_sum();
+            let rotational = local_w.dot(b.shape.inertia(b.mass) * local_w);
             (0.5 * b.mass * s.linvel.length_squared() + 0.5 * rotational
                 - b.mass * gravity.dot(s.position)) as f64
         })
         .sum()
 }
 
-/// Deepest overlap of a dynamic body with a static body (sphere or box against a half-space,
-/// sphere against a box) or of two spheres, m. Box-box overlaps are not measured (stacks use
-/// the drift).
+/// Deepest overlap of a dynamic body with a static body (any shape against a half-space,
+/// sphere against a box) or of two spheres, m. Other overlaps (box-box, anything against a
+/// mesh) are not measured (stacks use the drift, the stress scenes their speeds).
 fn penetration(dynamic: &[&BodySpec], statics: &[&BodySpec], states: &[BodyState]) -> f64 {
     let mut deepest = 0f32;
     for (body, s) in dynamic.iter().zip(states) {
         for wall in statics {
-            let depth = match (body.shape, wall.shape) {
-                (shape, Shape::HalfSpace(normal)) => {
+            let depth = match (&body.shape, &wall.shape) {
+                (shape, &Shape::HalfSpace(normal)) => {
                     let n = wall.rotation * normal;
+                    // How far the shape reaches from its origin towards the wall, along -n.
+                    let local = s.rotation.inverse() * n;
                     let reach = match shape {
-                        Shape::Ball(r) => r,
-                        Shape::Cuboid(h) => {
-                            let local = s.rotation.inverse() * n;
-                            (local.abs() * h).element_sum()
-                        }
-                        Shape::HalfSpace(_) => 0.0,
+                        Shape::Ball(r) => *r,
+                        Shape::Cuboid(h) => (local.abs() * *h).element_sum(),
+                        Shape::Capsule(r, hh) => r + hh * local.y.abs(),
+                        Shape::Hull(points) => points
+                            .iter()
+                            .map(|p| -local.dot(*p))
+                            .fold(f32::MIN, f32::max),
+                        Shape::TriMesh(..) | Shape::HalfSpace(_) => 0.0,
                     };
                     reach - n.dot(s.position - wall.position)
                 }
-                (Shape::Ball(r), Shape::Cuboid(h)) => {
+                (&Shape::Ball(r), &Shape::Cuboid(h)) => {
                     let q = wall.rotation.inverse() * (s.position - wall.position);
                     let inside = h - q.abs();
                     if inside.min_element() > 0.0 {

@@ -140,7 +140,24 @@ fn grid(method: SolverMethod) -> Vec<(u32, u32)> {
 /// - Quick: 1/60 and 1/30 s at each engine's defaults, plus one knob at a time at 1/60 s
 ///   (throughput scenes: defaults at 1/60 s).
 /// - Smoke: defaults at 1/60 s.
+/// - Stress scenes (every mode): each engine's defaults at 1/60 s only.
 pub fn configs(scene: &Scene, mode: Mode, peers: bool) -> Vec<RunConfig> {
+    if scene.kind == Kind::Stress {
+        // Each engine at its defaults at 60 Hz: the stress scenes are 20 s of up to 4,000
+        // bodies, and the question is whether the defaults hold.
+        let mut out: Vec<RunConfig> = SolverMethod::ALL
+            .into_iter()
+            .map(|m| {
+                let usual = SolverConfig::for_method(m);
+                impact3d(m, usual.substeps, usual.iterations, 60)
+            })
+            .collect();
+        if peers {
+            out.push(avian(None, 60));
+            out.push(rapier(None, 60));
+        }
+        return out;
+    }
     let throughput = scene.kind == Kind::Throughput;
     let rates: &[u32] = match mode {
         Mode::Full if !throughput => &[240, 120, 60, 30],

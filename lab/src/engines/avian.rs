@@ -38,10 +38,18 @@ impl Avian {
         let world = app.world_mut();
         let mut bodies = Vec::new();
         for b in &spec.bodies {
-            let collider = match b.shape {
-                Shape::Ball(r) => av::Collider::sphere(r),
-                Shape::Cuboid(h) => av::Collider::cuboid(2.0 * h.x, 2.0 * h.y, 2.0 * h.z),
-                Shape::HalfSpace(n) => av::Collider::half_space(n),
+            let collider = match &b.shape {
+                &Shape::Ball(r) => av::Collider::sphere(r),
+                &Shape::Cuboid(h) => av::Collider::cuboid(2.0 * h.x, 2.0 * h.y, 2.0 * h.z),
+                // avian's length is the cylinder's, without the caps.
+                &Shape::Capsule(r, hh) => av::Collider::capsule(r, 2.0 * hh),
+                Shape::Hull(points) => {
+                    av::Collider::convex_hull(points.clone()).expect("a hull impact3d accepted")
+                }
+                Shape::TriMesh(vertices, indices) => {
+                    av::Collider::trimesh(vertices.clone(), indices.clone())
+                }
+                &Shape::HalfSpace(n) => av::Collider::half_space(n),
             };
             let mut entity = world.spawn((
                 if b.dynamic {

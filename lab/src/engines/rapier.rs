@@ -56,10 +56,20 @@ impl Rapier {
             } else {
                 RigidBodyBuilder::fixed().pose(pose)
             };
-            let collider = match b.shape {
-                Shape::Ball(r) => ColliderBuilder::ball(r),
-                Shape::Cuboid(h) => ColliderBuilder::cuboid(h.x, h.y, h.z),
-                Shape::HalfSpace(n) => ColliderBuilder::new(SharedShape::halfspace(to_rapier(n))),
+            let collider = match &b.shape {
+                &Shape::Ball(r) => ColliderBuilder::ball(r),
+                &Shape::Cuboid(h) => ColliderBuilder::cuboid(h.x, h.y, h.z),
+                &Shape::Capsule(r, hh) => ColliderBuilder::capsule_y(hh, r),
+                Shape::Hull(points) => {
+                    let points: Vec<Vector> = points.iter().map(|&p| to_rapier(p)).collect();
+                    ColliderBuilder::convex_hull(&points).expect("a hull impact3d accepted")
+                }
+                Shape::TriMesh(vertices, indices) => ColliderBuilder::trimesh(
+                    vertices.iter().map(|&v| to_rapier(v)).collect(),
+                    indices.clone(),
+                )
+                .expect("a mesh impact3d accepted"),
+                &Shape::HalfSpace(n) => ColliderBuilder::new(SharedShape::halfspace(to_rapier(n))),
             };
             let collider = collider
                 .restitution(b.restitution)
