@@ -90,19 +90,24 @@ pub struct RigidRows {
     pub slop: f32,
     /// Restitution applies above this approach speed, m/s.
     pub restitution_threshold: f32,
+    /// Largest speed at which penetration is pushed out, m/s
+    /// ([`SolverConfig::max_push_out_speed`](super::SolverConfig::max_push_out_speed)).
+    pub max_push_out: f32,
 }
 
 impl RigidRows {
     /// The smallest normal velocity the row accepts, m/s: the speculative gap `s/h` may close,
-    /// penetration beyond the slop is pushed out at `baumgarte (-s - slop) / h`, and an impact
-    /// faster than the threshold must separate at `-e v_n`, with `v_n` taken before the solve.
+    /// penetration beyond the slop is pushed out at `baumgarte (-s - slop) / h` but no faster
+    /// than `max_push_out` (as the soft step's push-out: uncapped, `0.2 d / h` pushes a 5 cm
+    /// overlap out at 2.4 m/s at 240 Hz and a 0.5 m one at 24 m/s), and an impact faster than
+    /// the threshold must separate at `-e v_n`, with `v_n` taken before the solve.
     #[inline]
     pub fn target(&self, c: &ContactConstraint, bodies: &[SolverBody]) -> f32 {
         let s = c.current_separation(bodies);
         let mut target = if s > 0.0 {
             -s * self.inv_h
         } else {
-            self.baumgarte * self.inv_h * (-s - self.slop).max(0.0)
+            (self.baumgarte * self.inv_h * (-s - self.slop).max(0.0)).min(self.max_push_out)
         };
         if c.restitution > 0.0 && c.approach_velocity < -self.restitution_threshold {
             target = target.max(-c.restitution * c.approach_velocity);
