@@ -836,31 +836,30 @@ const SHORT: u64 = 200;
 const LONG: u64 = 5000;
 
 #[test]
-#[ignore = "fails today (issue 8): 26 of 200 worlds gain energy, median 69x, up to 1e33x; overlapping spawns blow up in step 1 (seed 33: 581x); clean ones too (seed 191: hull at 80 m/s onto the trimesh, 1.38x in step 1; seed 54: spinning capsule, e = 1, friction, 1.003x at step 20)"]
 fn energy_never_rises_hybrid() {
     random_worlds(SolverMethod::Hybrid, 0..SHORT);
 }
 
 #[test]
-#[ignore = "fails today (issue 8): 10 of 200 worlds gain energy, 1.001x-1.76x, all clean spawns (no push-out in this method): seed 107 (hulls on the trimesh, frictionless, e = 1) 1.76x at step 23, the rotational energy of a 2 kg hull 5 -> 695 J with the sweep bound hit; seed 54 (spinning capsule, e = 1, friction) 1.003x in one impact"]
+#[ignore = "fails (issue 8): 8 of 200 worlds gain energy, 1.000x-1.061x, all clean spawns (this method has no push-out: the energy comes from impulses), e.g. seed 107 (hulls on the trimesh, e = 1)"]
 fn energy_never_rises_propagation() {
     random_worlds(SolverMethod::Propagation, 0..SHORT);
 }
 
 #[test]
-#[ignore = "fails today (issue 8): 32 of 200 worlds gain energy, median 4.5x, up to 1224x (mostly overlapping spawns: Baumgarte push-out is not capped; 9 clean, e.g. seed 4 1.008x at step 29)"]
+#[ignore = "fails (issue 8): 11 of 200 worlds gain energy, 1.001x-1.32x (36 before Baumgarte was capped at the push-out speed), 10 of them clean spawns"]
 fn energy_never_rises_sequential_impulses() {
     random_worlds(SolverMethod::SequentialImpulses, 0..SHORT);
 }
 
 #[test]
-#[ignore = "fails today (issue 8): 5 of 200 worlds gain energy, all clean spawns: seed 107 2.08x at step 23, seed 129 1.18x, seed 162 (no floor, no gravity) 1.023x, seeds 31, 146 1.003x-1.022x"]
+#[ignore = "fails (issue 8): 9 of 200 worlds gain energy, 1.001x-1.14x, 8 of them clean spawns (e.g. seed 31, 1.002x at step 49)"]
 fn energy_never_rises_soft_step() {
     random_worlds(SolverMethod::SoftStep, 0..SHORT);
 }
 
 #[test]
-#[ignore = "fails today (issue 8): 36 of 200 worlds gain energy, median 1.7x, up to 1096x (mostly overlapping spawns: Baumgarte push-out is not capped; 13 clean, e.g. seed 5 1.45x in step 1)"]
+#[ignore = "fails (issue 8): 14 of 200 worlds gain energy, 1.001x-1.6x (36 before Baumgarte was capped at the push-out speed), 12 of them clean spawns"]
 fn energy_never_rises_jacobi() {
     random_worlds(SolverMethod::Jacobi, 0..SHORT);
 }
