@@ -1,8 +1,6 @@
 //! Transform interpolation: it changes nothing in the simulation, wakes no sleeper, and draws a
 //! body where it was one step ago plus the elapsed fraction of the step.
 
-use std::time::Duration;
-
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use impact3d::interpolation::InterpolationState;
