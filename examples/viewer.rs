@@ -333,14 +333,16 @@ fn setup(
             Overlay { scene_list },
         ));
     }
-    let texture =
-        assets.load_with_settings("textures/ground.png", |s: &mut ImageLoaderSettings| {
+    let texture = assets
+        .load_builder()
+        .with_settings(|s: &mut ImageLoaderSettings| {
             s.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
                 address_mode_u: ImageAddressMode::Repeat,
                 address_mode_v: ImageAddressMode::Repeat,
                 ..ImageSamplerDescriptor::linear()
             });
-        });
+        })
+        .load("textures/ground.png");
     cache.ground = Some(materials.add(StandardMaterial {
         base_color_texture: Some(texture),
         uv_transform: Affine2::from_scale(Vec2::splat(8.0)),
