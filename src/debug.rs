@@ -543,19 +543,22 @@ pub fn draw_impacts(
     }
 }
 
+/// The components the velocity layer reads.
+type VelocityQuery<'a> = (
+    &'a Transform,
+    &'a RigidBody,
+    Option<&'a LinearVelocity>,
+    Option<&'a AngularVelocity>,
+    Has<Sleeping>,
+    Option<&'a DebugRender>,
+);
+
 /// Draws the linear and angular velocity of each awake, non-static body as arrows from its
 /// origin, `velocity_scale` long per m/s or rad/s (3 segments each, none when zero).
 pub fn draw_velocities(
     mut gizmos: Gizmos<PhysicsGizmoGroup>,
     config: Res<PhysicsGizmos>,
-    bodies: Query<(
-        &Transform,
-        &RigidBody,
-        Option<&LinearVelocity>,
-        Option<&AngularVelocity>,
-        Has<Sleeping>,
-        Option<&DebugRender>,
-    )>,
+    bodies: Query<VelocityQuery>,
     mut segments: Local<Vec<[Vec3; 2]>>,
 ) {
     for (transform, body, linear, angular, sleeping, render) in &bodies {

@@ -116,6 +116,19 @@ fn write_pose(transform: &mut Mut<Transform>, p: (Vec3, Quat)) {
     }
 }
 
+/// The components [`restore_physics_poses`] reads and writes.
+type RestoreQuery<'a> = (
+    Entity,
+    &'a mut Transform,
+    &'a mut InterpolationState,
+    Option<&'a RigidBody>,
+    Has<TransformInterpolation>,
+    Has<Sleeping>,
+);
+
+/// Bodies that have no [`InterpolationState`] yet.
+type MissingState = (Without<InterpolationState>, With<Transform>);
+
 /// Before the fixed-step loop: gives each interpolated body back the pose the physics wrote
 /// last, keeps a pose the user set instead (restarting interpolation from it), and adds or
 /// removes [`InterpolationState`] as [`InterpolationConfig::all`] and
@@ -123,15 +136,8 @@ fn write_pose(transform: &mut Mut<Transform>, p: (Vec3, Quat)) {
 pub fn restore_physics_poses(
     mut commands: Commands,
     config: Res<InterpolationConfig>,
-    mut bodies: Query<(
-        Entity,
-        &mut Transform,
-        &mut InterpolationState,
-        Option<&RigidBody>,
-        Has<TransformInterpolation>,
-        Has<Sleeping>,
-    )>,
-    missing: Query<(Entity, &RigidBody), (Without<InterpolationState>, With<Transform>)>,
+    mut bodies: Query<RestoreQuery>,
+    missing: Query<(Entity, &RigidBody), MissingState>,
 ) {
     for (entity, mut transform, mut state, body, marked, sleeping) in &mut bodies {
         let wanted = marked || (config.all && body.is_some_and(|b| !b.is_static()));
