@@ -370,11 +370,14 @@ fn setup(
     .collect();
 }
 
+/// What a reset despawns: bodies and the scene's visual floor.
+type SceneEntity = Or<(With<Collider>, With<SceneBody>)>;
+
 /// Despawns the scene's bodies and builds the chosen scene again.
 fn reset_scene(
     mut commands: Commands,
     mut viewer: ResMut<Viewer>,
-    bodies: Query<Entity, Or<(With<Collider>, With<SceneBody>)>>,
+    bodies: Query<Entity, SceneEntity>,
 ) {
     if !viewer.reset {
         return;
@@ -649,6 +652,7 @@ fn stop_step_timer(mut viewer: ResMut<Viewer>, mut run: ResMut<RunArgs>) {
 }
 
 /// The text overlay: scenes, solver, timings, what the last step did, keys.
+#[allow(clippy::too_many_arguments)]
 fn update_overlay(
     mut viewer: ResMut<Viewer>,
     time: Res<Time<Real>>,
