@@ -2,8 +2,11 @@
 #![warn(missing_docs)]
 
 pub mod collision;
+#[cfg(feature = "debug")]
+pub mod debug;
 pub mod dynamics;
 pub mod impulse;
+pub mod interpolation;
 pub mod messages;
 pub mod pipeline;
 pub mod scenes;
@@ -20,10 +23,15 @@ pub use messages::{CollisionEnded, CollisionStarted, Impact};
 pub mod prelude {
     pub use crate::PhysicsPlugins;
     pub use crate::collision::Collider;
+    #[cfg(feature = "debug")]
+    pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};
     pub use crate::dynamics::{
         AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
         LockedAxes, Mass, Quarantined, Restitution, RigidBody, SleepConfig, Sleeping, SolverConfig,
         SolverMethod, SolverStats,
+    };
+    pub use crate::interpolation::{
+        InterpolationConfig, InterpolationPlugin, TransformInterpolation,
     };
     pub use crate::messages::{CollisionEnded, CollisionStarted, Impact};
     pub use crate::schedule::{PhysicsSchedule, PhysicsSystems};
@@ -68,5 +76,6 @@ impl PluginGroup for PhysicsPlugins {
             })
             .add(collision::CollisionPlugin)
             .add(dynamics::DynamicsPlugin)
+            .add(interpolation::InterpolationPlugin::default())
     }
 }
