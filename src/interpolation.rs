@@ -60,6 +60,18 @@ pub struct InterpolationState {
     pub valid: bool,
 }
 
+impl InterpolationState {
+    /// Standing still at `pose` (a pose the user set: interpolation restarts from it).
+    pub fn at(pose: (Vec3, Quat)) -> Self {
+        InterpolationState {
+            start: pose,
+            end: pose,
+            written: pose,
+            valid: true,
+        }
+    }
+}
+
 /// Transform interpolation (part of [`PhysicsPlugins`](crate::PhysicsPlugins)). With `all`
 /// false (the default) only bodies with [`TransformInterpolation`] are interpolated.
 #[derive(Default)]
@@ -144,13 +156,7 @@ pub fn restore_physics_poses(
         if state.valid {
             if pose(&transform) != state.written {
                 // The user moved the body: keep their pose, restart from it.
-                let p = pose(&transform);
-                *state = InterpolationState {
-                    start: p,
-                    end: p,
-                    written: p,
-                    valid: true,
-                };
+                *state = InterpolationState::at(pose(&transform));
             } else if !sleeping {
                 let end = state.end;
                 write_pose(&mut transform, end);
@@ -201,13 +207,7 @@ pub fn interpolate_transforms(
         }
         if pose(&transform) != state.written {
             // Moved by the user since the step (or after a step with no restore): keep it.
-            let p = pose(&transform);
-            *state = InterpolationState {
-                start: p,
-                end: p,
-                written: p,
-                valid: true,
-            };
+            *state = InterpolationState::at(pose(&transform));
             continue;
         }
         if sleeping {

@@ -740,7 +740,7 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
                     continue;
                 }
                 let separation = dist.max(0.0) - approach * t;
-                let mut c = ContactConstraint::new(
+                let c = ContactConstraint::new(
                     ia,
                     ib,
                     point,
@@ -750,16 +750,15 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
                     friction,
                 );
                 let carried = pair.manifolds[m].points[k].data;
-                c.normal_impulse = carried.normal;
-                c.tangent_impulse = carried.tangent;
-                state.contacts.push(c);
-                state
-                    .contact_keys
-                    .push((pair_index as u32, m as u32, k as u32));
+                push_row(
+                    &mut state.contacts,
+                    &mut state.contact_keys,
+                    c,
+                    carried,
+                    (pair_index, m, k),
+                );
             }
-            if state.contacts.len() > start {
-                state.pair_ranges.push(start..state.contacts.len());
-            }
+            close_pair_range(&state.contacts, &mut state.pair_ranges, start);
             continue;
         }
         if !pair.update(pose_a, shape_a, pose_b, shape_b, prediction) {
@@ -767,18 +766,39 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
             continue;
         }
         for (m, k, point, normal, dist) in pair.world_points(pose_a, pose_b) {
-            let mut c = ContactConstraint::new(ia, ib, point, normal, dist, restitution, friction);
+            let c = ContactConstraint::new(ia, ib, point, normal, dist, restitution, friction);
             let carried = pair.manifolds[m].points[k].data;
-            c.normal_impulse = carried.normal;
-            c.tangent_impulse = carried.tangent;
-            state.contacts.push(c);
-            state
-                .contact_keys
-                .push((pair_index as u32, m as u32, k as u32));
+            push_row(
+                &mut state.contacts,
+                &mut state.contact_keys,
+                c,
+                carried,
+                (pair_index, m, k),
+            );
         }
-        if state.contacts.len() > start {
-            state.pair_ranges.push(start..state.contacts.len());
-        }
+        close_pair_range(&state.contacts, &mut state.pair_ranges, start);
+    }
+}
+
+/// Adds the contact row of point `k` of manifold `m` of candidate pair `pair` (the `key`),
+/// starting from the impulses that point carried from the last step (warm starting).
+fn push_row(
+    contacts: &mut Vec<ContactConstraint>,
+    keys: &mut Vec<(u32, u32, u32)>,
+    mut row: ContactConstraint,
+    carried: ContactImpulse,
+    (pair, m, k): (usize, usize, usize),
+) {
+    row.normal_impulse = carried.normal;
+    row.tangent_impulse = carried.tangent;
+    contacts.push(row);
+    keys.push((pair as u32, m as u32, k as u32));
+}
+
+/// Records the rows pushed since `start` as one body pair's range, if there are any.
+fn close_pair_range(contacts: &[ContactConstraint], ranges: &mut Vec<Range<usize>>, start: usize) {
+    if contacts.len() > start {
+        ranges.push(start..contacts.len());
     }
 }
 

@@ -30,21 +30,10 @@ pub fn sweep_and_prune(aabbs: &[Aabb], pairs: &mut Vec<(u32, u32)>, order: &mut 
     let axis = sweep_axis(aabbs);
     order.clear();
     order.extend(0..aabbs.len() as u32);
-    order.sort_unstable_by(|&i, &j| {
-        aabbs[i as usize].mins[axis]
-            .total_cmp(&aabbs[j as usize].mins[axis])
-            .then(i.cmp(&j))
-    });
+    sort_by_lower_bound(aabbs, order, axis);
     for (k, &i) in order.iter().enumerate() {
-        let a = &aabbs[i as usize];
-        for &j in &order[k + 1..] {
-            let b = &aabbs[j as usize];
-            if b.mins[axis] > a.maxs[axis] {
-                break;
-            }
-            if overlaps(a, b) {
-                pairs.push((i.min(j), i.max(j)));
-            }
+        for j in forward_overlaps(aabbs, order, k, axis) {
+            pairs.push((i.min(j), i.max(j)));
         }
     }
     pairs.sort_unstable();
@@ -92,11 +81,7 @@ pub fn pairs_with_active(
     // others are sorted by their lower bound on the axis.
     order.clear();
     order.extend((0..aabbs.len() as u32).filter(|&i| !unbounded(&aabbs[i as usize])));
-    order.sort_unstable_by(|&i, &j| {
-        aabbs[i as usize].mins[axis]
-            .total_cmp(&aabbs[j as usize].mins[axis])
-            .then(i.cmp(&j))
-    });
+    sort_by_lower_bound(aabbs, order, axis);
     let widest = order
         .iter()
         .map(|&i| aabbs[i as usize].maxs[axis] - aabbs[i as usize].mins[axis])
@@ -127,14 +112,8 @@ pub fn pairs_with_active(
         }
         let a = &aabbs[i as usize];
         // Forward, as in `sweep_and_prune`: every box starting before this one ends.
-        for &j in &order[k + 1..] {
-            let b = &aabbs[j as usize];
-            if b.mins[axis] > a.maxs[axis] {
-                break;
-            }
-            if overlaps(a, b) {
-                push(pairs, i, j);
-            }
+        for j in forward_overlaps(aabbs, order, k, axis) {
+            push(pairs, i, j);
         }
         // Backward, for the inactive boxes that start before this one (an active one there
         // found this box in its own forward sweep): they start at most `widest` earlier.
@@ -150,6 +129,32 @@ pub fn pairs_with_active(
     }
     pairs.sort_unstable();
     pairs.dedup();
+}
+
+/// Sorts box indices by their lower bound on `axis` (ties by index, so the order is
+/// deterministic).
+fn sort_by_lower_bound(aabbs: &[Aabb], order: &mut [u32], axis: usize) {
+    order.sort_unstable_by(|&i, &j| {
+        aabbs[i as usize].mins[axis]
+            .total_cmp(&aabbs[j as usize].mins[axis])
+            .then(i.cmp(&j))
+    });
+}
+
+/// The boxes after `order[k]` in the sorted `order` that overlap it: the sweep stops at the
+/// first that starts after it ends on `axis`.
+fn forward_overlaps<'a>(
+    aabbs: &'a [Aabb],
+    order: &'a [u32],
+    k: usize,
+    axis: usize,
+) -> impl Iterator<Item = u32> + 'a {
+    let a = &aabbs[order[k] as usize];
+    order[k + 1..]
+        .iter()
+        .copied()
+        .take_while(move |&j| aabbs[j as usize].mins[axis] <= a.maxs[axis])
+        .filter(move |&j| overlaps(a, &aabbs[j as usize]))
 }
 
 fn overlaps(a: &Aabb, b: &Aabb) -> bool {
