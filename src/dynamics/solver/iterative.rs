@@ -457,8 +457,8 @@ pub fn manifold_sweep(
 /// One row of a manifold block: `(bias, soft)`, or `None` when the row takes no part.
 pub type BlockRow = Option<(f32, bool)>;
 
-/// Which body of a manifold block is its support, held fixed while the block is solved (see
-/// `shock_order` in the solver module).
+/// Which body of a manifold block is its support, held by [`Block::hold`] while the block is
+/// solved (see `shock_order` and `support_holds` in the solver module).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Support {
     /// Neither: both bodies respond (the usual two-body solve).

@@ -31,11 +31,11 @@ use propagation::{Propagation, propagate};
 ///
 /// | method | good at | costs | fails at (measured in `tests/methods_*.rs`, 60 Hz) |
 /// |---|---|---|---|
-/// | `Hybrid` (default) | impacts exact (cradle, stacked-ball drop, box landing flat without spin), never hops at rest, stacks of 20, a pyramid and 1000:1 mass ratios stand awake, sinking 0.28 mm per contact | one propagation sweep per wave of impacts + 4 soft substeps, each manifold a block | awake and frictionless, f32 rounding drifts bodies sideways slowly (1000:1 pair 2.1 cm in 10 s, pyramid 4.8 cm in 20 s; sleeping stops it) |
-/// | `Propagation` | Newton's cradle and the stacked-ball drop exact in any contact order | sweeps until nothing approaches | a box landing flat spins (0.86 rad/s for e = 1); resting boxes rattle or sink (no position correction); stacks fall |
-/// | `SequentialImpulses` | resting contact exactly still; warm-started baseline | `iterations` sweeps, fewer once settled | cradle and stacked-ball drop give the LCP answer; one iteration spins a flat box (1.26 rad/s) and, warm-starting an impact, adds energy; restitution from the pre-solve velocity hops at 1/15 s; stacks and mass ratios fall |
-/// | `SoftStep` | Box2D v3 as published: robust push-out, bounded sink | `substeps` x (`iterations` + relax) sweeps | restitution only for contacts approaching at preparation (cradle and drop lose 24-25% energy); a one-pass restitution spins a flat box (0.63 rad/s); frictionless stacks and mass ratios fall |
-/// | `Jacobi` | order independence: symmetric scenes stay symmetric | `iterations` sweeps | slow convergence with mass splitting (flat box rebounds at 0.94 for e = 1, 5-ball cradle far off); stacks bounce; Baumgarte launches a heavy box |
+/// | `Hybrid` (default) | impacts exact (cradle, stacked-ball drop, box landing flat without spin, simultaneous impacts solved together), never hops at rest, stacks of 20, a pyramid, 1000:1 pairs and piles of 4,000 stand awake, sinking 0.28 mm per contact; no energy gain in the random worlds of `tests/energy.rs` | one propagation sweep per wave of impacts + 4 soft substeps, each manifold a block | awake with friction, a 20-cube column sways (27 cm in 20 s) and a base-20 wall creeps; awake and frictionless, f32 rounding drifts bodies sideways slowly (sleeping stops both) |
+/// | `Propagation` | Newton's cradle and the stacked-ball drop exact in any contact order; corners meeting together are one event (a box lands flat without spin) | sweeps until nothing approaches | resting boxes with e > 0 hop (no threshold); no position correction, so stacks under large loads sink; some random worlds gain energy (up to 6%) |
+/// | `SequentialImpulses` | resting contact exactly still; warm-started baseline | `iterations` sweeps, fewer only when exactly settled | cradle and stacked-ball drop give the LCP answer; one iteration spins a flat box (1.26 rad/s); stacks and mass ratios fall; some random worlds gain energy (up to 32%) |
+/// | `SoftStep` | Box2D v3: robust push-out, bounded sink; restitution pass repeated until coupled contacts agree | `substeps` x (`iterations` + relax) sweeps | restitution only for contacts approaching at preparation (cradle and drop lose 24-25% energy); frictionless stacks and mass ratios fall; some random worlds gain energy (up to 14%) |
+/// | `Jacobi` | order independence: symmetric scenes stay symmetric | `iterations` sweeps | slow convergence with mass splitting (flat box rebounds at 0.94 for e = 1, 5-ball cradle far off); stacks bounce; some random worlds gain energy (up to 60%) |
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SolverMethod {
     /// Impacts (approach faster than [`SolverConfig::restitution_threshold`]) resolved by
@@ -48,9 +48,11 @@ pub enum SolverMethod {
     /// The resting phase differs from [`SolverMethod::SoftStep`] in three ways, all to keep
     /// frictionless stacks and mass ratios standing: each manifold is solved as one block with
     /// only its mean penetration soft (its tilt is rigid); manifolds are solved from the ground
-    /// up with the supporting body held fixed; and each manifold's stiffness is scaled by the
-    /// mass it carries, so that every supporting contact sinks by the same `g / (2 pi f)^2`
-    /// (see `manifold_sweep`, `shock_order` and `carried_loads`).
+    /// up with the supporting body held as far as its own supports hold it (wholly for a body
+    /// resting squarely, not at all for one free to move along the push); and each manifold's
+    /// stiffness is scaled by the mass it carries, so that every supporting contact sinks by
+    /// the same `g / (2 pi f)^2` (see `manifold_sweep`, `shock_order`, `support_holds` and
+    /// `carried_loads`).
     ///
     /// Why: propagation is the only method that gets chains of impacts right (Newton's cradle,
     /// stacked-ball drops), and the soft step is the most robust for resting stacks and high
@@ -436,14 +438,15 @@ fn rigid_substeps(
 }
 
 /// The manifolds of the hybrid method's resting solve, ordered from the ground up and each with
-/// its support, which is held fixed while the manifold is solved (shock propagation, after
-/// Guendelman, Bridson and Fedkiw, "Nonconvex rigid bodies with stacking", 2003), and with the
-/// mass it carries (see [`carried_loads`]).
+/// its support, which is held while the manifold is solved (shock propagation, after
+/// Guendelman, Bridson and Fedkiw, "Nonconvex rigid bodies with stacking", 2003) as far as its
+/// own supports hold it (see [`support_holds`]), and with the mass it carries (see
+/// [`carried_loads`]).
 ///
 /// A body's level is its distance, in contacts, from the nearest static or kinematic body
 /// (level 0); bodies that touch none share the largest level. A manifold between bodies of
-/// different levels is solved with the lower body held fixed (it takes no impulse in the solve),
-/// and manifolds are solved in ascending order of their lower level, so one sweep settles each
+/// different levels is solved with the lower body held (wholly, when it rests squarely on held
+/// supports: it then takes no impulse in the solve), and manifolds are solved in ascending order of their lower level, so one sweep settles each
 /// body on its support, up a whole stack. Manifolds that support the same body are adjacent,
 /// and `manifold_sweep` solves them together.
 ///
