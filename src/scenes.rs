@@ -562,6 +562,18 @@ pub fn pour_into(world: &mut World, pour: &Pour) -> Spawned {
 /// cells, whose vertices alternate between heights 0 and `bump` m (a gently bumpy terrain, so
 /// that contacts are not all vertical).
 pub fn trimesh_floor(world: &mut World, half: f32, cells: usize, bump: f32) -> Entity {
+    world
+        .spawn((
+            RigidBody::Static,
+            bumpy_grid(half, cells, bump),
+            Transform::IDENTITY,
+        ))
+        .id()
+}
+
+/// The collider of [`trimesh_floor`]: a square of `2 half` m a side, `cells x cells` square
+/// cells of two triangles each, vertices alternating between heights 0 and `bump` m.
+pub fn bumpy_grid(half: f32, cells: usize, bump: f32) -> Collider {
     let size = 2.0 * half / cells as f32;
     let mut vertices = Vec::new();
     for i in 0..=cells {
@@ -578,13 +590,7 @@ pub fn trimesh_floor(world: &mut World, half: f32, cells: usize, bump: f32) -> E
             indices.push([at(i + 1, k), at(i, k + 1), at(i + 1, k + 1)]);
         }
     }
-    world
-        .spawn((
-            RigidBody::Static,
-            Collider::trimesh(vertices, indices),
-            Transform::IDENTITY,
-        ))
-        .id()
+    Collider::trimesh(vertices, indices)
 }
 
 /// `count` 1 m cubes of 1 kg, friction `friction`, dropped from a grid 1.5 m apart (layers of

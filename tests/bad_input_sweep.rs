@@ -50,27 +50,6 @@ fn pile(sleeping: bool) -> (App, Entity, Entity, Vec<Entity>) {
     (app, bad, below, far)
 }
 
-fn snapshot(app: &App, bodies: &[Entity]) -> Vec<[u32; 13]> {
-    bodies
-        .iter()
-        .map(|&e| {
-            let t = app.world().get::<Transform>(e).unwrap();
-            let mut out = [0u32; 13];
-            let values = t
-                .translation
-                .to_array()
-                .into_iter()
-                .chain(t.rotation.to_array())
-                .chain(velocity(app, e).to_array())
-                .chain(spin(app, e).to_array());
-            for (o, x) in out.iter_mut().zip(values) {
-                *o = x.to_bits();
-            }
-            out
-        })
-        .collect()
-}
-
 /// Sets one component of `e` to a value built from `v`; returns the restore.
 type Break = fn(&mut EntityWorldMut, f32);
 

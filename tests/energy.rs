@@ -598,30 +598,10 @@ impl World3 {
 /// Height of the trimesh floor's raised vertices, m.
 const TRIMESH_TOP: f32 = 0.2;
 
-/// A static trimesh floor: a 40 m x 40 m grid of 4 m cells whose vertices alternate between
-/// heights 0 and [`TRIMESH_TOP`] (a gently bumpy terrain, so contacts are not all vertical).
+/// A static trimesh floor: a 40 m x 40 m grid of 4 m cells (`scenes::bumpy_grid`) whose
+/// vertices alternate between heights 0 and [`TRIMESH_TOP`] (a gently bumpy terrain, so contacts are not all vertical).
 fn trimesh_floor() -> Collider {
-    let (cells, size) = (10usize, 4.0f32);
-    let mut vertices = Vec::new();
-    for i in 0..=cells {
-        for k in 0..=cells {
-            let y = if (i + k) % 2 == 0 { 0.0 } else { TRIMESH_TOP };
-            vertices.push(Vec3::new(
-                (i as f32 - cells as f32 / 2.0) * size,
-                y,
-                (k as f32 - cells as f32 / 2.0) * size,
-            ));
-        }
-    }
-    let at = |i: usize, k: usize| (i * (cells + 1) + k) as u32;
-    let mut indices = Vec::new();
-    for i in 0..cells {
-        for k in 0..cells {
-            indices.push([at(i, k), at(i, k + 1), at(i + 1, k)]);
-            indices.push([at(i + 1, k), at(i, k + 1), at(i + 1, k + 1)]);
-        }
-    }
-    Collider::trimesh(vertices, indices)
+    scenes::bumpy_grid(20.0, 10, TRIMESH_TOP)
 }
 
 /// How far above its start a world's mechanical energy may go, J.

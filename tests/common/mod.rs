@@ -155,3 +155,26 @@ pub fn state_of(
         spin_momentum: (inertia * local_w).length(),
     }
 }
+
+/// Pose and velocities of `bodies` (translation, rotation, linear and angular velocity), as
+/// raw bits, for bit-identical comparisons.
+pub fn snapshot(app: &App, bodies: &[Entity]) -> Vec<[u32; 13]> {
+    bodies
+        .iter()
+        .map(|&e| {
+            let t = app.world().get::<Transform>(e).unwrap();
+            let mut out = [0u32; 13];
+            let values = t
+                .translation
+                .to_array()
+                .into_iter()
+                .chain(t.rotation.to_array())
+                .chain(velocity(app, e).to_array())
+                .chain(spin(app, e).to_array());
+            for (o, x) in out.iter_mut().zip(values) {
+                *o = x.to_bits();
+            }
+            out
+        })
+        .collect()
+}
