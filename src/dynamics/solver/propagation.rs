@@ -144,6 +144,8 @@ pub fn propagate(
             event.clear();
             event.push(k);
             in_event[k] = true;
+            // The event's time: the latest of its groups' (all within `SIMULTANEOUS` of `time`).
+            let mut event_time = time;
             let mut next = 0;
             while next < event.len() {
                 let g = event[next];
@@ -152,23 +154,19 @@ pub fn propagate(
                 for body in [a, b] {
                     for &l in touching.of(body) {
                         let l = l as usize;
-                        if in_event[l]
-                            || !approaches(l, &stamp, bodies, contacts, &met)
-                            || (group_time(bodies, contacts, &groups[l], params, met[l]) - time)
-                                .abs()
-                                > SIMULTANEOUS * params.dt
-                        {
+                        if in_event[l] || !approaches(l, &stamp, bodies, contacts, &met) {
+                            continue;
+                        }
+                        let t = group_time(bodies, contacts, &groups[l], params, met[l]);
+                        if (t - time).abs() > SIMULTANEOUS * params.dt {
                             continue;
                         }
                         in_event[l] = true;
                         event.push(l);
+                        event_time = event_time.max(t);
                     }
                 }
             }
-            let event_time = event
-                .iter()
-                .map(|&g| group_time(bodies, contacts, &groups[g], params, met[g]))
-                .fold(time, f32::max);
             resolve_event(
                 bodies,
                 contacts,
