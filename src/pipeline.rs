@@ -5,7 +5,7 @@
 use std::ops::Range;
 
 use bevy::ecs::query::QueryData;
-use bevy::ecs::system::SystemChangeTick;
+use bevy::ecs::system::{SystemChangeTick, SystemParam};
 use bevy::prelude::*;
 use parry3d::bounding_volume::BoundingVolume;
 use parry3d::math::Pose;
@@ -17,7 +17,9 @@ use crate::collision::narrow_phase::{
     ContactImpulse, Meeting, StepMotion, TOUCH_DISTANCE, time_of_impact,
 };
 use crate::collision::{Collider, ContactPairs};
-use crate::dynamics::sleep::{SleepConfig, SleepTimer, Sleeping, islands_to_sleep};
+use crate::dynamics::sleep::{
+    SleepConfig, SleepTimer, Sleeper, Sleeping, SleepingSet, islands_to_sleep,
+};
 use crate::dynamics::solver::{self, ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{
     DEFAULT_DT, MAX_ANGULAR_SPEED, MAX_COORDINATE, MAX_LINEAR_SPEED, PhysicsLengthUnit, body_label,
@@ -83,6 +85,18 @@ pub struct PhysicsState {
     /// Bodies of pairs that disappeared in this step (a neighbour despawned, was quarantined
     /// or moved away): a sleeping one wakes its island.
     lost: Vec<Entity>,
+    /// The sleeping bodies that sit out the step until something touches them.
+    sleepers: SleepingSet,
+    /// Counts steps (wrapping), to mark the sleepers put into this step's arrays.
+    step: u32,
+    /// Sleeping bodies put into this step's arrays (read, or brought in).
+    entered: Vec<Entity>,
+    /// Bodies that left the step since the last one: despawned, collider removed, or
+    /// quarantined. Their resting pairs end.
+    departed: Vec<Entity>,
+    /// Sleeping-marked bodies read every step: quarantined ones, and those that are not
+    /// dynamic (they take part in the step as any other body).
+    read_every_step: Vec<Entity>,
     /// Steps since the propagation bound warning was last logged.
     steps_since_bound_warning: u32,
     /// The settings of this step, validated (see [`validate_settings`]) and with lengths and
@@ -198,33 +212,92 @@ pub struct BodyData {
     sleeping: Option<Ref<'static, Sleeping>>,
 }
 
+/// Change filter of a sleeping body: any of the components the prepare stage reads changed
+/// since its last run (or the marker was just added). A sleeping body that matches none sits
+/// out the step (see [`SleepingSet`]).
+type Disturbed = Or<(
+    Changed<Sleeping>,
+    Changed<Transform>,
+    Changed<Collider>,
+    Changed<RigidBody>,
+    Changed<LinearVelocity>,
+    Changed<AngularVelocity>,
+    Changed<Restitution>,
+    Changed<Friction>,
+    Changed<Mass>,
+    Changed<Density>,
+    Changed<ComputedMass>,
+    Changed<LockedAxes>,
+)>;
+
+/// The settings resources and the clock a step reads.
+#[derive(SystemParam)]
+pub struct StepSettings<'w> {
+    time: Res<'w, Time>,
+    config: Res<'w, SolverConfig>,
+    gravity: Res<'w, Gravity>,
+    sleep: Res<'w, SleepConfig>,
+    unit: Res<'w, PhysicsLengthUnit>,
+}
+
+/// The sleeping bodies: the entities of those disturbed since the last step, and every
+/// sleeping body with the components the prepare stage reads.
+type SleepingBodies<'w, 's> = ParamSet<
+    'w,
+    's,
+    (
+        Query<'static, 'static, Entity, (With<Sleeping>, With<Collider>, Disturbed)>,
+        Query<'static, 'static, BodyData, With<Sleeping>>,
+    ),
+>;
+
+/// The removals of components a body's gathered state depends on. A sleeping body that lost
+/// one is read again; one that lost its collider (or was despawned) ends its resting pairs.
+#[derive(SystemParam)]
+pub struct BodyRemovals<'w, 's> {
+    sleeping: RemovedComponents<'w, 's, Sleeping>,
+    collider: RemovedComponents<'w, 's, Collider>,
+    body: RemovedComponents<'w, 's, RigidBody>,
+    transform: RemovedComponents<'w, 's, Transform>,
+    linear: RemovedComponents<'w, 's, LinearVelocity>,
+    angular: RemovedComponents<'w, 's, AngularVelocity>,
+    restitution: RemovedComponents<'w, 's, Restitution>,
+    friction: RemovedComponents<'w, 's, Friction>,
+    mass: RemovedComponents<'w, 's, Mass>,
+    density: RemovedComponents<'w, 's, Density>,
+    computed: RemovedComponents<'w, 's, ComputedMass>,
+    locked: RemovedComponents<'w, 's, LockedAxes>,
+}
+
 /// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
 /// mass properties up to date and packs the solver bodies. A collider without a `RigidBody` is
 /// static.
+///
+/// A sleeping body is read only when something may have touched it (a component it depends
+/// on changed or was removed, or it was just put to sleep); the others keep their record in
+/// the [`SleepingSet`] and sit out the step, unless the broad phase finds an awake body's box
+/// over theirs or their island wakes.
 pub fn prepare_bodies(
     mut commands: Commands,
     ticks: SystemChangeTick,
-    time: Res<Time>,
-    (config, gravity, sleep, unit): (
-        Res<SolverConfig>,
-        Res<Gravity>,
-        Res<SleepConfig>,
-        Res<PhysicsLengthUnit>,
-    ),
+    settings: StepSettings,
     mut state: ResMut<PhysicsState>,
-    mut query: Query<BodyData>,
+    mut awake: Query<BodyData, Without<Sleeping>>,
+    mut sleeping: SleepingBodies,
+    mut removals: BodyRemovals,
 ) {
     let state = &mut *state;
-    validate_settings(state, &config, &gravity, &sleep, &unit, time.delta_secs());
-    let (config, sleep) = (&state.settings.config, &state.settings.sleep);
-    let (margin, speculative, sleep_enabled) = (
-        config.contact_margin,
-        config.speculative_contacts,
-        sleep.enabled,
+    validate_settings(
+        state,
+        &settings.config,
+        &settings.gravity,
+        &settings.sleep,
+        &settings.unit,
+        settings.time.delta_secs(),
     );
-    let dt = state.settings.dt;
-    state.dt = dt;
-    let gravity_speed = state.settings.gravity.0.length() * dt;
+    let sleep_enabled = state.settings.sleep.enabled;
+    state.dt = state.settings.dt;
+    state.step = state.step.wrapping_add(1);
     state.entities.clear();
     state.bodies.clear();
     state.local_com.clear();
@@ -239,174 +312,289 @@ pub fn prepare_bodies(
     state.radius.clear();
     state.asleep.clear();
     state.woken.clear();
+    state.entered.clear();
+    state.departed.clear();
 
-    for mut item in query.iter_mut() {
-        let entity = item.entity;
-        let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
-        let check = validate(&mut item, kind);
-        let label = || body_label(entity, item.name);
-        match (check, item.quarantined) {
-            (Err(reason), quarantined) => {
-                if quarantined.is_none_or(|q| q.reason != reason) {
-                    log::error!(
-                        "impact3d: {} is left out of the physics step: {reason}",
-                        label()
-                    );
-                    commands.entity(entity).insert(Quarantined { reason });
-                }
-                continue;
-            }
-            (Ok(()), Some(_)) => {
-                log::info!(
-                    "impact3d: {} is valid again and rejoins the physics step",
-                    label()
-                );
-                commands.entity(entity).remove::<Quarantined>();
-            }
-            (Ok(()), None) => {}
+    for mut item in awake.iter_mut() {
+        if let Gathered::Quarantined = gather_body(state, &mut commands, &ticks, &mut item) {
+            state.departed.push(item.entity);
         }
-        warn_on_coefficient_change(&label, item.restitution.as_ref(), "restitution", 1.0);
-        warn_on_coefficient_change(&label, item.friction.as_ref(), "friction", f32::INFINITY);
+    }
 
-        let rotation = item.transform.rotation.normalize();
-        let translation = item.transform.translation;
-        let motion = match kind {
-            RigidBody::Dynamic => Motion::Dynamic,
-            RigidBody::Kinematic => Motion::Kinematic,
-            RigidBody::Static => Motion::Static,
+    // The sleeping bodies to read: the disturbed ones, those that lost a component, and those
+    // that must be read every step (quarantined, or not dynamic); all of them when sleeping
+    // is off.
+    let mut read: Vec<Entity> = std::mem::take(&mut state.read_every_step);
+    state.departed.extend(removals.collider.read());
+    for entity in removals.sleeping.read() {
+        state.sleepers.remove(entity);
+    }
+    let removed = [
+        removals.body.read().collect::<Vec<_>>(),
+        removals.transform.read().collect(),
+        removals.linear.read().collect(),
+        removals.angular.read().collect(),
+        removals.restitution.read().collect(),
+        removals.friction.read().collect(),
+        removals.mass.read().collect(),
+        removals.density.read().collect(),
+        removals.computed.read().collect(),
+        removals.locked.read().collect(),
+    ];
+    for entity in removed.into_iter().flatten() {
+        if state.sleepers.get(entity).is_some() {
+            state.sleepers.remove(entity);
+            read.push(entity);
+        }
+    }
+    let departed = state.departed.clone();
+    for &entity in &departed {
+        state.sleepers.remove(entity);
+    }
+    if sleep_enabled {
+        read.extend(sleeping.p0().iter());
+    } else {
+        state.sleepers.clear();
+        read.extend(sleeping.p1().iter().map(|item| item.entity));
+    }
+    read.sort_unstable();
+    read.dedup();
+    state
+        .sleepers
+        .set_margin(state.settings.config.contact_margin);
+    let mut query = sleeping.p1();
+    for entity in read {
+        let Ok(mut item) = query.get_mut(entity) else {
+            continue;
         };
-        let computed = item.computed.as_deref().copied().unwrap_or_default();
-        let local_com = if motion == Motion::Dynamic {
-            computed.local_center_of_mass
-        } else {
-            Vec3::ZERO
-        };
-        let linear = item.linear_velocity.as_deref().map_or(Vec3::ZERO, |v| v.0);
-        let angular = item.angular_velocity.as_deref().map_or(Vec3::ZERO, |w| w.0);
-        let body = SolverBody::new(motion, translation + rotation * local_com, rotation)
-            .with_mass(
-                computed.inverse_mass,
-                computed.local_inverse_inertia,
-                computed.isotropic,
-                item.locked.map_or(BVec3::FALSE, |l| l.rotation),
-            )
-            .with_velocity(linear, angular);
-
-        let shape = item.collider.shape().clone();
-        let pose = Pose::from_parts(translation, rotation);
-        let radius = if item.collider.is_unbounded_or_hollow() {
-            0.0
-        } else {
-            let local = shape.compute_local_aabb();
-            (local.mins - local_com)
-                .abs()
-                .max((local.maxs - local_com).abs())
-                .length()
-        };
-        // A sleeping body enters the step as static; it is swapped back in if woken.
-        let asleep = match (&item.sleeping, kind) {
-            (Some(marker), RigidBody::Dynamic) if sleep_enabled => {
-                let since = marker.added();
-                let now = ticks.this_run();
-                let touched = item.transform.last_changed().is_newer_than(since, now)
-                    || item
-                        .linear_velocity
-                        .as_ref()
-                        .is_some_and(|v| v.last_changed().is_newer_than(since, now))
-                    || item
-                        .angular_velocity
-                        .as_ref()
-                        .is_some_and(|w| w.last_changed().is_newer_than(since, now));
-                let island = if marker.island == Entity::PLACEHOLDER {
-                    entity
-                } else {
-                    marker.island
-                };
-                if touched {
-                    state.woken.push(island);
-                }
-                Some(island)
+        match gather_body(state, &mut commands, &ticks, &mut item) {
+            Gathered::Asleep => {
+                let i = state.entities.len() - 1;
+                let (island, body) = state.asleep[i].expect("gathered asleep");
+                state.sleepers.insert(
+                    Sleeper {
+                        entity,
+                        island,
+                        body,
+                        local_com: state.local_com[i],
+                        shape: state.shapes[i].clone(),
+                        pose: state.poses[i],
+                        restitution: state.restitution[i],
+                        friction: state.friction[i],
+                        radius: state.radius[i],
+                    },
+                    state.step,
+                );
+                state.entered.push(entity);
             }
-            _ => None,
-        };
-        let (body, asleep) = match asleep {
-            Some(island) => (
-                SolverBody::new(Motion::Static, body.position, body.rotation),
-                Some((island, body)),
-            ),
-            None => (body, None),
-        };
-        let moving = speculative && body.motion != Motion::Static;
-        // Gravity adds up to |g| dt to a dynamic body's speed within the step: without it, a
-        // body falling from just beyond its reach lands `|g| dt^2` deep.
-        let gained = if body.motion == Motion::Dynamic {
-            gravity_speed
-        } else {
-            0.0
-        };
-        let reach = if moving {
-            (body.linear_velocity.length() + gained + body.angular_velocity.length() * radius) * dt
-        } else {
-            0.0
-        };
-        // The box swept along the step's linear motion, widened by the margin and by how far
-        // rotation can carry a point (|w| dt R): unlike a box widened by the whole reach in
-        // every direction, it does not pull in bodies beside a fast body's path.
-        let aabb = shape.compute_aabb(&pose);
-        let aabb = if moving {
-            let travel = body.linear_velocity * dt
-                + 0.5 * gained * dt * state.settings.gravity.0.normalize_or_zero();
-            let end = parry3d::bounding_volume::Aabb::new(aabb.mins + travel, aabb.maxs + travel);
-            aabb.merged(&end)
-                .loosened(0.5 * margin + body.angular_velocity.length() * radius * dt)
-        } else {
-            aabb.loosened(0.5 * margin)
-        };
-
-        state.entities.push(entity);
-        state.bodies.push(body);
-        state.local_com.push(local_com);
-        state.shapes.push(shape);
-        state.poses.push(pose);
-        state.restitution.push(clamp_coefficient(
-            item.restitution.as_deref().map(|r| r.0),
-            1.0,
-        ));
-        state.friction.push(clamp_coefficient(
-            item.friction.as_deref().map(|f| f.0),
-            f32::INFINITY,
-        ));
-        state.reach.push(reach);
-        state
-            .spin_reach
-            .push(if moving && !item.collider.is_sphere() {
-                body.angular_velocity.length() * radius * dt
-            } else {
-                0.0
-            });
-        state.aabbs.push(aabb);
-        // Dynamic and kinematic bodies are active (asleep ones are static here, and turned
-        // back by `wake_islands` if woken); a static or sleeping body only if something about
-        // it changed, or it fell asleep at the end of the last step (its pairs were found
-        // from the box it had at the start of that step).
-        state.active.push(
-            body.motion != Motion::Static
-                || item.transform.is_changed()
-                || item.collider.is_changed()
-                || item.body.as_ref().is_some_and(|b| b.is_changed())
-                || item.quarantined.is_some()
-                || item.sleeping.as_ref().is_some_and(|m| m.is_added()),
-        );
-        state.radius.push(radius);
-        state.asleep.push(asleep);
+            Gathered::Quarantined => {
+                state.sleepers.remove(entity);
+                state.departed.push(entity);
+                state.read_every_step.push(entity);
+            }
+            Gathered::Awake => {
+                state.sleepers.remove(entity);
+                state.read_every_step.push(entity);
+            }
+        }
     }
     if !sleep_enabled {
+        state.read_every_step.clear();
         return;
     }
     // Islands the user touched wake whole.
     let woken = std::mem::take(&mut state.woken);
     wake_islands(state, &woken);
     mark_awake_active(state);
+}
+
+/// What [`gather_body`] made of a body.
+enum Gathered {
+    /// Left out of the step (bad input).
+    Quarantined,
+    /// Packed as a dynamic, kinematic or static body.
+    Awake,
+    /// Packed as a sleeping body (static in the solve unless woken).
+    Asleep,
+}
+
+/// Validates one body and packs it into the step's arrays (see [`prepare_bodies`]).
+fn gather_body(
+    state: &mut PhysicsState,
+    commands: &mut Commands,
+    ticks: &SystemChangeTick,
+    item: &mut BodyDataItem,
+) -> Gathered {
+    let (config, sleep) = (&state.settings.config, &state.settings.sleep);
+    let (margin, speculative, sleep_enabled) = (
+        config.contact_margin,
+        config.speculative_contacts,
+        sleep.enabled,
+    );
+    let dt = state.settings.dt;
+    let gravity_speed = state.settings.gravity.0.length() * dt;
+    let entity = item.entity;
+    let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
+    let check = validate(item, kind);
+    let label = || body_label(entity, item.name);
+    match (check, item.quarantined) {
+        (Err(reason), quarantined) => {
+            if quarantined.is_none_or(|q| q.reason != reason) {
+                log::error!(
+                    "impact3d: {} is left out of the physics step: {reason}",
+                    label()
+                );
+                commands.entity(entity).insert(Quarantined { reason });
+            }
+            return Gathered::Quarantined;
+        }
+        (Ok(()), Some(_)) => {
+            log::info!(
+                "impact3d: {} is valid again and rejoins the physics step",
+                label()
+            );
+            commands.entity(entity).remove::<Quarantined>();
+        }
+        (Ok(()), None) => {}
+    }
+    warn_on_coefficient_change(&label, item.restitution.as_ref(), "restitution", 1.0);
+    warn_on_coefficient_change(&label, item.friction.as_ref(), "friction", f32::INFINITY);
+    let rotation = item.transform.rotation.normalize();
+    let translation = item.transform.translation;
+    let motion = match kind {
+        RigidBody::Dynamic => Motion::Dynamic,
+        RigidBody::Kinematic => Motion::Kinematic,
+        RigidBody::Static => Motion::Static,
+    };
+    let computed = item.computed.as_deref().copied().unwrap_or_default();
+    let local_com = if motion == Motion::Dynamic {
+        computed.local_center_of_mass
+    } else {
+        Vec3::ZERO
+    };
+    let linear = item.linear_velocity.as_deref().map_or(Vec3::ZERO, |v| v.0);
+    let angular = item.angular_velocity.as_deref().map_or(Vec3::ZERO, |w| w.0);
+    let body = SolverBody::new(motion, translation + rotation * local_com, rotation)
+        .with_mass(
+            computed.inverse_mass,
+            computed.local_inverse_inertia,
+            computed.isotropic,
+            item.locked.map_or(BVec3::FALSE, |l| l.rotation),
+        )
+        .with_velocity(linear, angular);
+
+    let shape = item.collider.shape().clone();
+    let pose = Pose::from_parts(translation, rotation);
+    let radius = if item.collider.is_unbounded_or_hollow() {
+        0.0
+    } else {
+        let local = shape.compute_local_aabb();
+        (local.mins - local_com)
+            .abs()
+            .max((local.maxs - local_com).abs())
+            .length()
+    };
+    // A sleeping body enters the step as static; it is swapped back in if woken.
+    let asleep = match (&item.sleeping, kind) {
+        (Some(marker), RigidBody::Dynamic) if sleep_enabled => {
+            let since = marker.added();
+            let now = ticks.this_run();
+            let touched = item.transform.last_changed().is_newer_than(since, now)
+                || item
+                    .linear_velocity
+                    .as_ref()
+                    .is_some_and(|v| v.last_changed().is_newer_than(since, now))
+                || item
+                    .angular_velocity
+                    .as_ref()
+                    .is_some_and(|w| w.last_changed().is_newer_than(since, now));
+            let island = if marker.island == Entity::PLACEHOLDER {
+                entity
+            } else {
+                marker.island
+            };
+            if touched {
+                state.woken.push(island);
+            }
+            Some(island)
+        }
+        _ => None,
+    };
+    let (body, asleep) = match asleep {
+        Some(island) => (
+            SolverBody::new(Motion::Static, body.position, body.rotation),
+            Some((island, body)),
+        ),
+        None => (body, None),
+    };
+    let moving = speculative && body.motion != Motion::Static;
+    // Gravity adds up to |g| dt to a dynamic body's speed within the step: without it, a
+    // body falling from just beyond its reach lands `|g| dt^2` deep.
+    let gained = if body.motion == Motion::Dynamic {
+        gravity_speed
+    } else {
+        0.0
+    };
+    let reach = if moving {
+        (body.linear_velocity.length() + gained + body.angular_velocity.length() * radius) * dt
+    } else {
+        0.0
+    };
+    // The box swept along the step's linear motion, widened by the margin and by how far
+    // rotation can carry a point (|w| dt R): unlike a box widened by the whole reach in
+    // every direction, it does not pull in bodies beside a fast body's path.
+    let aabb = shape.compute_aabb(&pose);
+    let aabb = if moving {
+        let travel = body.linear_velocity * dt
+            + 0.5 * gained * dt * state.settings.gravity.0.normalize_or_zero();
+        let end = parry3d::bounding_volume::Aabb::new(aabb.mins + travel, aabb.maxs + travel);
+        aabb.merged(&end)
+            .loosened(0.5 * margin + body.angular_velocity.length() * radius * dt)
+    } else {
+        aabb.loosened(0.5 * margin)
+    };
+
+    state.entities.push(entity);
+    state.bodies.push(body);
+    state.local_com.push(local_com);
+    state.shapes.push(shape);
+    state.poses.push(pose);
+    state.restitution.push(clamp_coefficient(
+        item.restitution.as_deref().map(|r| r.0),
+        1.0,
+    ));
+    state.friction.push(clamp_coefficient(
+        item.friction.as_deref().map(|f| f.0),
+        f32::INFINITY,
+    ));
+    state.reach.push(reach);
+    state
+        .spin_reach
+        .push(if moving && !item.collider.is_sphere() {
+            body.angular_velocity.length() * radius * dt
+        } else {
+            0.0
+        });
+    state.aabbs.push(aabb);
+    // Dynamic and kinematic bodies are active (asleep ones are static here, and turned
+    // back by `wake_islands` if woken); a static or sleeping body only if something about
+    // it changed, or it fell asleep at the end of the last step (its pairs were found
+    // from the box it had at the start of that step).
+    state.active.push(
+        body.motion != Motion::Static
+            || item.transform.is_changed()
+            || item.collider.is_changed()
+            || item.body.as_ref().is_some_and(|b| b.is_changed())
+            || item.quarantined.is_some()
+            || item.sleeping.as_ref().is_some_and(|m| m.is_added()),
+    );
+    state.radius.push(radius);
+    state.asleep.push(asleep);
+    if state.asleep.last().is_some_and(Option::is_some) {
+        Gathered::Asleep
+    } else {
+        Gathered::Awake
+    }
 }
 
 /// Marks every body that is not static in the solve (a woken sleeper) as active.
@@ -416,10 +604,26 @@ fn mark_awake_active(state: &mut PhysicsState) {
     }
 }
 
-/// Swaps the bodies of the given islands back in as dynamic bodies and records the islands as
-/// woken (their `Sleeping` markers are removed at the end of the step). Returns whether any
-/// body woke.
+/// Swaps the bodies of the given islands back in as dynamic bodies (bringing in those that sat
+/// out the step) and records the islands as woken (their `Sleeping` markers are removed at the
+/// end of the step). Returns whether any body woke.
 fn wake_islands(state: &mut PhysicsState, islands: &[Entity]) -> bool {
+    if islands.is_empty() {
+        return false;
+    }
+    let mut sorted = islands.to_vec();
+    sorted.sort_unstable();
+    let members: Vec<u32> = (0..state.sleepers.len() as u32)
+        .filter(|&i| {
+            !state.sleepers.in_step(i, state.step)
+                && sorted
+                    .binary_search(&state.sleepers.record(i).island)
+                    .is_ok()
+        })
+        .collect();
+    for i in members {
+        bring_in(state, i);
+    }
     let mut any = false;
     for i in 0..state.bodies.len() {
         if let Some((island, body)) = state.asleep[i]
@@ -434,6 +638,50 @@ fn wake_islands(state: &mut PhysicsState, islands: &[Entity]) -> bool {
         }
     }
     any
+}
+
+/// Puts sleeping body `i` of the [`SleepingSet`] into the step's arrays, as it was gathered:
+/// a static body that becomes its dynamic self if its island wakes.
+fn bring_in(state: &mut PhysicsState, i: u32) {
+    state.sleepers.mark_in_step(i, state.step);
+    let s = state.sleepers.record(i);
+    state.entities.push(s.entity);
+    state.bodies.push(SolverBody::new(
+        Motion::Static,
+        s.body.position,
+        s.body.rotation,
+    ));
+    state.local_com.push(s.local_com);
+    state.shapes.push(s.shape.clone());
+    state.poses.push(s.pose);
+    state.restitution.push(s.restitution);
+    state.friction.push(s.friction);
+    state.reach.push(0.0);
+    state.spin_reach.push(0.0);
+    state.aabbs.push(state.sleepers.aabb(i));
+    state.active.push(false);
+    state.radius.push(s.radius);
+    state.asleep.push(Some((s.island, s.body)));
+    state.entered.push(s.entity);
+}
+
+/// Brings in every sleeping body whose box an active body's box overlaps, so that the sweep
+/// finds their pairs as if every sleeping body were in the arrays.
+fn bring_in_overlapped(state: &mut PhysicsState) {
+    if state.sleepers.is_empty() {
+        return;
+    }
+    let mut found = Vec::new();
+    for i in 0..state.bodies.len() {
+        if state.active[i] {
+            state.sleepers.overlapping(&state.aabbs[i], &mut found);
+        }
+    }
+    for k in found {
+        if !state.sleepers.in_step(k, state.step) {
+            bring_in(state, k);
+        }
+    }
 }
 
 /// Checks one body's input and refreshes its mass properties when their inputs changed.
@@ -540,18 +788,19 @@ fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
 
 /// Finds candidate pairs by sweep and prune, keeping only pairs where at least one body is
 /// dynamic.
-pub fn update_broad_phase(mut state: ResMut<PhysicsState>, pairs: Res<ContactPairs>) {
+pub fn update_broad_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<ContactPairs>) {
     let state = &mut *state;
-    pairs_with_active(
-        &state.aabbs,
-        &state.active,
-        &mut state.index_pairs,
-        &mut state.sort_scratch,
-    );
     // An awake body (dynamic, or kinematic and moving) overlapping a sleeping one wakes its
     // island now, so that the contact is solved with the sleeper's real mass; repeat until no
     // more islands wake (a woken island may overlap another sleeping one).
     loop {
+        bring_in_overlapped(state);
+        pairs_with_active(
+            &state.aabbs,
+            &state.active,
+            &mut state.index_pairs,
+            &mut state.sort_scratch,
+        );
         let mut islands = Vec::new();
         for &(i, j) in &state.index_pairs {
             for (me, other) in [(i as usize, j as usize), (j as usize, i as usize)] {
@@ -572,16 +821,34 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>, pairs: Res<ContactPai
         }
         // The woken bodies are active now: search their pairs too.
         mark_awake_active(state);
-        pairs_with_active(
-            &state.aabbs,
-            &state.active,
-            &mut state.index_pairs,
-            &mut state.sort_scratch,
+    }
+    // Resting pairs set aside while their sleeping bodies sat out come back among the
+    // candidates when one of their bodies is in the step again, when the other body (static)
+    // changed, or when it is gone.
+    if pairs.has_resting() {
+        let mut back: Vec<Entity> = state.entered.clone();
+        back.extend(state.departed.iter().copied());
+        back.extend(
+            state
+                .entities
+                .iter()
+                .zip(&state.active)
+                .zip(&state.bodies)
+                .filter(|&((_, &active), body)| active && body.motion == Motion::Static)
+                .map(|((&e, _), _)| e),
         );
+        if !back.is_empty() {
+            back.sort_unstable();
+            pairs.revive(|p| back.binary_search(&p.a).is_ok() || back.binary_search(&p.b).is_ok());
+        }
     }
     // Pairs of two inactive bodies cannot have changed since the last step (neither moved):
-    // carry them over instead of sweeping every sleeping and static body each step.
-    if state.active.iter().any(|a| !a) {
+    // carry them over instead of sweeping every sleeping and static body each step. A pair of
+    // which a body sits out the step asleep, the other sitting out too or inactive, is set
+    // aside as it is.
+    if !pairs.candidates().is_empty()
+        && (state.active.iter().any(|a| !a) || !state.sleepers.is_empty())
+    {
         state.index_of.clear();
         state.index_of.extend(
             state
@@ -598,13 +865,29 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>, pairs: Res<ContactPai
                 .ok()
                 .map(|k| state.index_of[k].1)
         };
-        for p in pairs.iter() {
-            if let (Some(i), Some(j)) = (find(p.a), find(p.b))
-                && !state.active[i as usize]
-                && !state.active[j as usize]
-            {
-                state.index_pairs.push((i.min(j), i.max(j)));
+        let mut aside = Vec::new();
+        for (k, p) in pairs.candidates().iter().enumerate() {
+            match (find(p.a), find(p.b)) {
+                (Some(i), Some(j)) => {
+                    if !state.active[i as usize] && !state.active[j as usize] {
+                        state.index_pairs.push((i.min(j), i.max(j)));
+                    }
+                }
+                (i, j) => {
+                    let resting = |e: Entity, i: Option<u32>| match i {
+                        Some(i) => !state.active[i as usize],
+                        None => state.sleepers.get(e).is_some(),
+                    };
+                    if resting(p.a, i) && resting(p.b, j) {
+                        aside.resize(pairs.candidates().len(), false);
+                        aside[k] = true;
+                    }
+                }
             }
+        }
+        if !aside.is_empty() {
+            aside.resize(pairs.candidates().len(), false);
+            pairs.set_aside(&aside);
         }
     }
     let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
@@ -1110,14 +1393,28 @@ pub fn update_sleep(
         }
     };
     let mut woken = state.woken.clone();
-    for (entity, marker) in &sleepers {
-        if state.lost.contains(&entity) {
+    for &entity in &state.lost {
+        if let Ok((entity, marker)) = sleepers.get(entity) {
             woken.push(island_of(entity, marker));
         }
     }
-    for (entity, marker) in &sleepers {
-        if woken.contains(&island_of(entity, marker)) {
-            commands.entity(entity).remove::<Sleeping>();
+    if !woken.is_empty() {
+        woken.sort_unstable();
+        woken.dedup();
+        let woken = |island: Entity| woken.binary_search(&island).is_ok();
+        // Every body of a woken island: those of the sleeping set (in the step or not), and
+        // the sleeping-marked ones read every step.
+        for s in state.sleepers.records() {
+            if woken(s.island) {
+                commands.entity(s.entity).remove::<Sleeping>();
+            }
+        }
+        for &entity in &state.read_every_step {
+            if let Ok((entity, marker)) = sleepers.get(entity)
+                && woken(island_of(entity, marker))
+            {
+                commands.entity(entity).remove::<Sleeping>();
+            }
         }
     }
     let mut timers: Vec<Option<f32>> = vec![None; state.bodies.len()];
@@ -1145,7 +1442,7 @@ pub fn update_sleep(
             && (b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO)
     };
     let mut links = Vec::new();
-    for (pair, &(ia, ib)) in pairs.iter().zip(&state.candidate_indices) {
+    for (pair, &(ia, ib)) in pairs.candidates().iter().zip(&state.candidate_indices) {
         let (da, db) = (
             state.bodies[ia].motion == Motion::Dynamic,
             state.bodies[ib].motion == Motion::Dynamic,

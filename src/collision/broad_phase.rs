@@ -74,9 +74,7 @@ pub fn pairs_with_active(
         return;
     }
     let axis = sweep_axis(aabbs);
-    let unbounded = |b: &Aabb| {
-        (b.maxs - b.mins).max_element().partial_cmp(&1e6) != Some(std::cmp::Ordering::Less)
-    };
+    let unbounded = is_unbounded;
     // Unbounded boxes (a half-space's) are checked against every active box directly; the
     // others are sorted by their lower bound on the axis.
     order.clear();
@@ -131,9 +129,15 @@ pub fn pairs_with_active(
     pairs.dedup();
 }
 
+/// A box too large to sort usefully (a half-space's), or with a NaN extent: such boxes are
+/// checked against every box directly.
+pub(crate) fn is_unbounded(b: &Aabb) -> bool {
+    (b.maxs - b.mins).max_element().partial_cmp(&1e6) != Some(std::cmp::Ordering::Less)
+}
+
 /// Sorts box indices by their lower bound on `axis` (ties by index, so the order is
 /// deterministic).
-fn sort_by_lower_bound(aabbs: &[Aabb], order: &mut [u32], axis: usize) {
+pub(crate) fn sort_by_lower_bound(aabbs: &[Aabb], order: &mut [u32], axis: usize) {
     order.sort_unstable_by(|&i, &j| {
         aabbs[i as usize].mins[axis]
             .total_cmp(&aabbs[j as usize].mins[axis])
@@ -157,12 +161,13 @@ fn forward_overlaps<'a>(
         .filter(move |&j| overlaps(a, &aabbs[j as usize]))
 }
 
-fn overlaps(a: &Aabb, b: &Aabb) -> bool {
+/// Whether two boxes overlap (touching counts).
+pub(crate) fn overlaps(a: &Aabb, b: &Aabb) -> bool {
     (0..3).all(|k| a.mins[k] <= b.maxs[k] && b.mins[k] <= a.maxs[k])
 }
 
 /// The axis (0, 1 or 2) along which the centres of the bounded boxes spread most.
-fn sweep_axis(aabbs: &[Aabb]) -> usize {
+pub(crate) fn sweep_axis(aabbs: &[Aabb]) -> usize {
     let mut sum = [0.0f64; 3];
     let mut sum_sq = [0.0f64; 3];
     let mut n = 0.0f64;

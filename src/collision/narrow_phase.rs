@@ -224,35 +224,77 @@ pub fn time_of_impact(
     }
 }
 
-/// Every pair the broad phase reported in the last step, sorted by `(a, b)`.
+/// Every pair the broad phase reported in the last step, sorted by `(a, b)`: the pairs of the
+/// step's candidates, and the resting pairs set aside while a sleeping body of theirs sits out
+/// the steps (see [`SleepingSet`](crate::dynamics::sleep::SleepingSet)), which keep their
+/// manifolds and touching state untouched.
 #[derive(Resource, Default)]
 pub struct ContactPairs {
     pairs: Vec<ContactPair>,
+    resting: Vec<ContactPair>,
 }
 
 impl ContactPairs {
-    /// The pairs, sorted by `(a, b)`.
+    /// Every pair, sorted by `(a, b)`.
     pub fn iter(&self) -> impl Iterator<Item = &ContactPair> {
-        self.pairs.iter()
+        let mut live = self.pairs.iter().peekable();
+        let mut resting = self.resting.iter().peekable();
+        std::iter::from_fn(move || match (live.peek(), resting.peek()) {
+            (Some(p), Some(q)) if (q.a, q.b) < (p.a, p.b) => resting.next(),
+            (Some(_), _) => live.next(),
+            (None, _) => resting.next(),
+        })
     }
 
     /// The pair of `a` and `b` (in either order), if the broad phase reported it.
     pub fn get(&self, a: Entity, b: Entity) -> Option<&ContactPair> {
         let key = (a.min(b), a.max(b));
-        self.pairs
-            .binary_search_by(|p| (p.a, p.b).cmp(&key))
-            .ok()
+        let find = |pairs: &'_ [ContactPair]| pairs.binary_search_by(|p| (p.a, p.b).cmp(&key)).ok();
+        find(&self.pairs)
             .map(|i| &self.pairs[i])
+            .or_else(|| find(&self.resting).map(|i| &self.resting[i]))
     }
 
-    /// Mutable access to all pairs, in order.
+    /// The pairs of this step's candidates, in order (the resting pairs set aside are not
+    /// among them).
+    pub fn candidates(&self) -> &[ContactPair] {
+        &self.pairs
+    }
+
+    /// Mutable access to the pairs of this step's candidates, in order.
     pub fn pairs_mut(&mut self) -> &mut [ContactPair] {
         &mut self.pairs
     }
 
-    /// Replaces the pair set with `candidates` (sorted by `(a, b)`, `a < b`), keeping the state
-    /// of pairs that persist. Pairs that are gone are passed to `removed` (touching ones end a
-    /// collision).
+    /// Whether any pair is set aside.
+    pub fn has_resting(&self) -> bool {
+        !self.resting.is_empty()
+    }
+
+    /// Moves the candidate pairs whose flag in `aside` is set (one flag per pair of
+    /// [`candidates`](Self::candidates)) to the resting pairs.
+    pub fn set_aside(&mut self, aside: &[bool]) {
+        let (moved, kept): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pairs)
+            .into_iter()
+            .zip(aside)
+            .partition(|&(_, &a)| a);
+        self.pairs = kept.into_iter().map(|(p, _)| p).collect();
+        let moved = moved.into_iter().map(|(p, _)| p).collect();
+        self.resting = merge(std::mem::take(&mut self.resting), moved);
+    }
+
+    /// Moves the resting pairs for which `wake` is true back among the candidate pairs.
+    pub fn revive(&mut self, mut wake: impl FnMut(&ContactPair) -> bool) {
+        let (woken, kept): (Vec<_>, Vec<_>) = std::mem::take(&mut self.resting)
+            .into_iter()
+            .partition(|p| wake(p));
+        self.resting = kept;
+        self.pairs = merge(std::mem::take(&mut self.pairs), woken);
+    }
+
+    /// Replaces the candidate pairs with `candidates` (sorted by `(a, b)`, `a < b`), keeping the
+    /// state of pairs that persist. Pairs that are gone are passed to `removed` (touching ones
+    /// end a collision). The resting pairs are left as they are.
     pub fn retain_candidates(
         &mut self,
         candidates: &[(Entity, Entity)],
@@ -273,6 +315,24 @@ impl ContactPairs {
         for p in old {
             removed(&p);
         }
+    }
+}
+
+/// Two lists of pairs sorted by `(a, b)`, merged.
+fn merge(a: Vec<ContactPair>, b: Vec<ContactPair>) -> Vec<ContactPair> {
+    if b.is_empty() {
+        return a;
+    }
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut a, mut b) = (a.into_iter().peekable(), b.into_iter().peekable());
+    loop {
+        let take_b = match (a.peek(), b.peek()) {
+            (Some(p), Some(q)) => (q.a, q.b) < (p.a, p.b),
+            (Some(_), None) => false,
+            (None, Some(_)) => true,
+            (None, None) => return out,
+        };
+        out.extend(if take_b { b.next() } else { a.next() });
     }
 }
 

@@ -4,12 +4,22 @@
 //! bounding radius about the centre of mass) stays below [`SleepConfig::linear_threshold`].
 //! Bodies that touch (a contact point within the contact margin) form an island; when every
 //! body of an island has been slow for [`SleepConfig::time_to_sleep`], the whole island sleeps:
-//! its velocities are zeroed, it gets the [`Sleeping`] marker, and it enters later steps as a
-//! static body (no solver work; pairs of sleeping or static bodies are not even narrow-phased).
+//! its velocities are zeroed, it gets the [`Sleeping`] marker, and it sits later steps out: its
+//! components are not read, it is not packed, swept or solved, and its resting pairs are set
+//! aside as they are ([`SleepingSet`]). Only what detects a touch remains: a change filter on
+//! its components, and a look-up of each awake body's box among the sleepers' sorted boxes. A
+//! sleeper that an awake body's box reaches enters the step as a static body.
 //! An island wakes, all at once, when an awake body touches one of its bodies, or when the user
 //! changes a sleeping body's pose or velocity or removes its `Sleeping` marker.
 
+use bevy::ecs::entity::EntityHashMap;
 use bevy::prelude::*;
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::math::Pose;
+use parry3d::shape::SharedShape;
+
+use crate::collision::broad_phase::{is_unbounded, overlaps, sort_by_lower_bound, sweep_axis};
+use crate::dynamics::solver::SolverBody;
 
 /// Marks a sleeping body. Insert `Sleeping::default()` to put a body to sleep on its own;
 /// remove it to wake the body.
@@ -128,6 +138,202 @@ pub fn islands_to_sleep(
             (timers[i].is_some() && ready[root as usize]).then_some(root)
         })
         .collect()
+}
+
+/// A sleeping body as the step last gathered it: everything the step needs to bring it back
+/// into the packed arrays (as a static body, or as the dynamic body it becomes when woken)
+/// without reading its components again.
+#[derive(Clone)]
+pub struct Sleeper {
+    /// The body.
+    pub entity: Entity,
+    /// The island it sleeps with (see [`Sleeping::island`]).
+    pub island: Entity,
+    /// The dynamic solver body it becomes when woken.
+    pub body: SolverBody,
+    /// Centre of mass in the body frame, m.
+    pub local_com: Vec3,
+    /// Its collider's shape.
+    pub shape: SharedShape,
+    /// The collider's pose (the body origin).
+    pub pose: Pose,
+    /// Restitution coefficient, clamped.
+    pub restitution: f32,
+    /// Friction coefficient, clamped.
+    pub friction: f32,
+    /// Bounding radius about the centre of mass, m.
+    pub radius: f32,
+}
+
+/// The sleeping bodies that sit out the step: a body enters the step's packed arrays only when
+/// something may have touched it (its components changed, an awake body's box overlaps its
+/// box, or its island wakes); the others cost nothing per step. Their boxes are kept sorted
+/// along one axis, so finding the sleepers an awake body's box overlaps costs a binary search.
+#[derive(Default)]
+pub struct SleepingSet {
+    records: Vec<Sleeper>,
+    /// Each record's box (the shape's box at its pose widened by half the contact margin, as
+    /// the broad phase widens a static body's), in the order of `records`.
+    boxes: Vec<Aabb>,
+    /// The step each record was last put into the packed arrays.
+    in_step: Vec<u32>,
+    index: EntityHashMap<u32>,
+    /// The contact margin the boxes were widened by, m.
+    margin: f32,
+    /// Bounded boxes sorted by their lower bound on `axis`; rebuilt when the set changed.
+    order: Vec<u32>,
+    unbounded: Vec<u32>,
+    widest: f32,
+    axis: usize,
+    sorted: bool,
+}
+
+impl SleepingSet {
+    /// Number of sleeping bodies recorded.
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    /// Whether no sleeping body is recorded.
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// The record of `entity`, if it sleeps.
+    pub fn get(&self, entity: Entity) -> Option<u32> {
+        self.index.get(&entity).copied()
+    }
+
+    /// Record `i`.
+    pub fn record(&self, i: u32) -> &Sleeper {
+        &self.records[i as usize]
+    }
+
+    /// Every record, in no particular (but a deterministic) order.
+    pub fn records(&self) -> &[Sleeper] {
+        &self.records
+    }
+
+    /// The box of record `i`, widened by half the contact margin.
+    pub fn aabb(&self, i: u32) -> Aabb {
+        self.boxes[i as usize]
+    }
+
+    /// Whether record `i` was put into the packed arrays in step `step`.
+    pub fn in_step(&self, i: u32, step: u32) -> bool {
+        self.in_step[i as usize] == step
+    }
+
+    /// Marks record `i` as put into the packed arrays in step `step`.
+    pub fn mark_in_step(&mut self, i: u32, step: u32) {
+        self.in_step[i as usize] = step;
+    }
+
+    fn widened(&self, sleeper: &Sleeper) -> Aabb {
+        sleeper
+            .shape
+            .compute_aabb(&sleeper.pose)
+            .loosened(0.5 * self.margin)
+    }
+
+    /// Records (or replaces the record of) a sleeping body, put into the arrays in `step`.
+    pub fn insert(&mut self, sleeper: Sleeper, step: u32) {
+        let aabb = self.widened(&sleeper);
+        match self.index.get(&sleeper.entity) {
+            Some(&i) => {
+                self.sorted &= self.boxes[i as usize] == aabb;
+                self.boxes[i as usize] = aabb;
+                self.records[i as usize] = sleeper;
+                self.in_step[i as usize] = step;
+            }
+            None => {
+                self.index.insert(sleeper.entity, self.records.len() as u32);
+                self.records.push(sleeper);
+                self.boxes.push(aabb);
+                self.in_step.push(step);
+                self.sorted = false;
+            }
+        }
+    }
+
+    /// Forgets `entity` (it woke, was despawned, or must be read again).
+    pub fn remove(&mut self, entity: Entity) {
+        let Some(i) = self.index.remove(&entity) else {
+            return;
+        };
+        let i = i as usize;
+        self.records.swap_remove(i);
+        self.boxes.swap_remove(i);
+        self.in_step.swap_remove(i);
+        if let Some(moved) = self.records.get(i) {
+            self.index.insert(moved.entity, i as u32);
+        }
+        self.sorted = false;
+    }
+
+    /// Forgets every body.
+    pub fn clear(&mut self) {
+        *self = SleepingSet {
+            margin: self.margin,
+            ..default()
+        };
+    }
+
+    /// Sets the contact margin the boxes are widened by, m; the boxes are recomputed when it
+    /// changed.
+    pub fn set_margin(&mut self, margin: f32) {
+        if margin == self.margin {
+            return;
+        }
+        self.margin = margin;
+        self.boxes = self.records.iter().map(|s| self.widened(s)).collect();
+        self.sorted = false;
+    }
+
+    /// Appends to `out` the records whose boxes overlap `aabb` (touching counts, as in the
+    /// broad phase), in ascending order of their lower bound.
+    pub fn overlapping(&mut self, aabb: &Aabb, out: &mut Vec<u32>) {
+        if self.records.is_empty() {
+            return;
+        }
+        if !self.sorted {
+            self.axis = sweep_axis(&self.boxes);
+            let boxes = &self.boxes;
+            self.unbounded = (0..boxes.len() as u32)
+                .filter(|&i| is_unbounded(&boxes[i as usize]))
+                .collect();
+            self.order.clear();
+            self.order
+                .extend((0..boxes.len() as u32).filter(|&i| !is_unbounded(&boxes[i as usize])));
+            sort_by_lower_bound(boxes, &mut self.order, self.axis);
+            self.widest = self
+                .order
+                .iter()
+                .map(|&i| boxes[i as usize].maxs[self.axis] - boxes[i as usize].mins[self.axis])
+                .fold(0.0f32, f32::max);
+            self.sorted = true;
+        }
+        let (boxes, axis) = (&self.boxes, self.axis);
+        out.extend(
+            self.unbounded
+                .iter()
+                .copied()
+                .filter(|&i| overlaps(aabb, &boxes[i as usize])),
+        );
+        // A box that overlaps `aabb` starts before `aabb` ends, and at most `widest` before
+        // `aabb` starts (it ends after `aabb` starts).
+        let from = aabb.mins[axis] - self.widest;
+        let start = self
+            .order
+            .partition_point(|&i| boxes[i as usize].mins[axis] < from);
+        out.extend(
+            self.order[start..]
+                .iter()
+                .copied()
+                .take_while(|&i| boxes[i as usize].mins[axis] <= aabb.maxs[axis])
+                .filter(|&i| overlaps(aabb, &boxes[i as usize])),
+        );
+    }
 }
 
 #[cfg(test)]

@@ -199,6 +199,9 @@ impl SolverConfig {
 #[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq)]
 #[reflect(Resource, Debug, Default, PartialEq)]
 pub struct SolverStats {
+    /// Bodies in the step, static ones included; sleeping bodies that sit the step out (see
+    /// [`SleepingSet`](crate::dynamics::sleep::SleepingSet)) are not among them.
+    pub bodies: u32,
     /// Contact points in the solve.
     pub contacts: u32,
     /// Velocity iterations actually run (all substeps, solve and relax), after early-outs.
@@ -244,6 +247,7 @@ pub fn step(
     dt: f32,
 ) -> SolverStats {
     let mut stats = SolverStats {
+        bodies: bodies.len() as u32,
         contacts: contacts.len() as u32,
         ..default()
     };
