@@ -15,6 +15,7 @@ pub mod engines;
 pub mod measure;
 pub mod report;
 pub mod scenes;
+pub mod sleeping;
 pub mod sweep;
 
 use std::path::PathBuf;
@@ -58,11 +59,18 @@ pub struct Options {
     pub verbose: bool,
     /// Run only the scenes with these names (all when empty).
     pub only: Vec<String>,
+    /// Time only the sleeping pair ([`sleeping`]), writing `sleeping.csv` and `sleeping.md`
+    /// and leaving the sweep's files as they are.
+    pub sleeping_only: bool,
 }
 
 /// Runs every scene on every configuration of the sweep, writes the CSV and SVG files into
 /// `options.out`, and returns the rows.
 pub fn run(options: &Options) -> std::io::Result<Vec<report::Row>> {
+    if options.sleeping_only {
+        run_sleeping(options)?;
+        return Ok(Vec::new());
+    }
     let mut scenes = scenes::all(options.mode);
     if !options.only.is_empty() {
         scenes.retain(|s| options.only.iter().any(|name| name == s.name));
@@ -138,6 +146,19 @@ pub fn run(options: &Options) -> std::io::Result<Vec<report::Row>> {
             started.elapsed().as_secs_f64(),
             options.out.display()
         );
+    }
+    if options.mode == Mode::Full && options.only.is_empty() {
+        run_sleeping(options)?;
+    }
+    Ok(rows)
+}
+
+/// Times the sleeping pair and writes its files (see [`sleeping`]).
+pub fn run_sleeping(options: &Options) -> std::io::Result<Vec<sleeping::SleepRow>> {
+    let rows = sleeping::run(options.mode);
+    sleeping::write(&options.out, options.mode, &rows)?;
+    if options.verbose {
+        println!("{}", sleeping::table(options.mode, &rows));
     }
     Ok(rows)
 }

@@ -1,16 +1,19 @@
-//! `cargo run --release -p impact3d-lab [-- --quick] [--out DIR] [--no-peers] [--scenes A,B]`: runs the
-//! speed-vs-accuracy sweep and writes CSV and SVG files (default folder `lab/results`).
+//! `cargo run --release -p impact3d-lab [-- --quick] [--out DIR] [--no-peers] [--scenes A,B]
+//! [--sleeping]`: runs the speed-vs-accuracy sweep and writes CSV and SVG files (default folder
+//! `lab/results`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use impact3d_lab::{Mode, Options, run};
 
-const USAGE: &str = "usage: impact3d-lab [--quick] [--out DIR] [--no-peers] [--scenes A,B]
+const USAGE: &str =
+    "usage: impact3d-lab [--quick] [--out DIR] [--no-peers] [--scenes A,B] [--sleeping]
   --quick        a few scenes, small and short, reduced sweep (under two minutes)
   --out DIR      output folder (default: lab/results)
   --no-peers     measure impact3d only
-  --scenes A,B   run only these scenes (names as in the CSV files)";
+  --scenes A,B   run only these scenes (names as in the CSV files)
+  --sleeping     time only the sleeping pair (10,000 spheres asleep vs awake)";
 
 fn main() -> ExitCode {
     let mut options = Options {
@@ -19,12 +22,14 @@ fn main() -> ExitCode {
         out: PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/results")),
         verbose: true,
         only: Vec::new(),
+        sleeping_only: false,
     };
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
         match arg.as_str() {
             "--quick" => options.mode = Mode::Quick,
             "--no-peers" => options.peers = false,
+            "--sleeping" => options.sleeping_only = true,
             "--scenes" => match args.next() {
                 Some(names) => options.only = names.split(',').map(str::to_string).collect(),
                 None => {

@@ -555,6 +555,51 @@ pub fn all(mode: Mode) -> Vec<Scene> {
     scenes
 }
 
+/// The pair [`crate::sleeping`] times: the sparse free-flight scene's spheres (10,000 in the
+/// full mode), awake, and the same spheres all asleep (velocities zeroed, `Sleeping` inserted
+/// as a user would put them to sleep); sleeping on in both. The error is the free-flight one:
+/// asleep, the straight path is standing still, so any motion counts.
+pub fn sleeping_pair(mode: Mode) -> [Scene; 2] {
+    let n = match mode {
+        Mode::Full => 10_000,
+        Mode::Quick => 2000,
+        Mode::Smoke => 100,
+    };
+    let duration = if mode == Mode::Smoke { 0.2 } else { 0.5 };
+    let scene = |asleep: bool| Scene {
+        name: match (asleep, mode == Mode::Full) {
+            (false, true) => "awake10000",
+            (true, true) => "asleep10000",
+            (false, false) => "awake",
+            (true, false) => "asleep",
+        },
+        kind: Kind::Throughput,
+        description: format!(
+            "{n} spheres 2 m apart, {}, sleeping on; error = largest distance from the straight path, m",
+            if asleep {
+                "all asleep"
+            } else {
+                "awake in free flight"
+            }
+        ),
+        build: Box::new(move |w| {
+            w.insert_resource(SleepConfig::default());
+            let balls = shared::sparse_flight(w, n);
+            if asleep {
+                for ball in balls {
+                    w.entity_mut(ball)
+                        .insert((LinearVelocity(Vec3::ZERO), Sleeping::default()));
+                }
+            }
+        }),
+        duration,
+        check: Check::FreeFlight,
+        tolerance: 1e-3,
+        unit: "m",
+    };
+    [scene(false), scene(true)]
+}
+
 /// Issue 8's stress family (built by [`shared::pour_into`], [`shared::pyramid_with`],
 /// [`shared::column`], [`shared::boxes_on_trimesh`], [`shared::light_against_heavy`] and
 /// [`shared::three_ball_hit`]), 20 s each at each engine's defaults at 60 Hz (the small cases

@@ -13,6 +13,7 @@ fn smoke_run_writes_csv_and_svg() {
         out: out.clone(),
         verbose: false,
         only: Vec::new(),
+        sleeping_only: false,
     };
     let rows = run(&options).expect("the run writes its files");
 
@@ -69,4 +70,40 @@ fn smoke_run_writes_csv_and_svg() {
     assert!(summary.contains("</svg>") && summary.contains("Pareto front"));
     assert!(out.join("summary.md").exists());
     std::fs::remove_dir_all(&out).unwrap();
+}
+
+/// The sleeping pair (cut down to 100 spheres) writes one row per method, and the sleeping
+/// spheres do not move at all: their free-flight error (the distance from where they were
+/// put to sleep) is exactly zero.
+#[test]
+fn smoke_sleeping_pair_writes_its_table() {
+    let out = std::env::temp_dir().join(format!("impact3d-lab-sleep-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let options = Options {
+        mode: Mode::Smoke,
+        peers: false,
+        out: out.clone(),
+        verbose: false,
+        only: Vec::new(),
+        sleeping_only: true,
+    };
+    assert!(run(&options).expect("the run writes its files").is_empty());
+    let csv = std::fs::read_to_string(out.join("sleeping.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), impact3d::prelude::SolverMethod::ALL.len());
+    for row in &rows {
+        let value = |k: usize| row[k].parse::<f64>().unwrap();
+        assert!(value(1) > 0.0 && value(2) > 0.0, "{row:?}");
+        assert_eq!(value(7), 0.0, "sleeping spheres moved: {row:?}");
+    }
+    assert!(
+        std::fs::read_to_string(out.join("sleeping.md"))
+            .unwrap()
+            .contains("asleep / awake")
+    );
+    let _ = std::fs::remove_dir_all(&out);
 }
