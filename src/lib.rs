@@ -27,8 +27,8 @@ pub mod prelude {
     pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};
     pub use crate::dynamics::{
         AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
-        LockedAxes, Mass, Quarantined, Restitution, RigidBody, SleepConfig, Sleeping, SolverConfig,
-        SolverMethod, SolverStats,
+        LockedAxes, Mass, PhysicsLengthUnit, Quarantined, Restitution, RigidBody, SleepConfig,
+        Sleeping, SolverConfig, SolverMethod, SolverStats,
     };
     pub use crate::interpolation::{
         InterpolationConfig, InterpolationPlugin, TransformInterpolation,

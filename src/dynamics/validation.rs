@@ -65,7 +65,6 @@ pub const DEFAULT_DT: f32 = 1.0 / 64.0;
 /// ```
 /// use bevy::prelude::*;
 /// use impact3d::prelude::*;
-/// use impact3d::dynamics::validation::PhysicsLengthUnit;
 ///
 /// let mut app = App::new();
 /// app.add_plugins((MinimalPlugins, PhysicsPlugins::default()))
