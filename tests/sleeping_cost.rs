@@ -80,9 +80,9 @@ fn sleeping_bodies_sit_the_step_out() {
             .iter()
             .all(|&c| app.world().get::<Sleeping>(c).is_some())
     );
-    // Falling asleep at the end of a step, a body is read once more (its marker is new),
-    // and once more after that (its velocities were zeroed): then it sits out.
-    run_steps(&mut app, 2);
+    // Falling asleep at the end of a step, a body is read once more in the next (its marker
+    // is new and its velocities were zeroed); from then on it sits out.
+    run_steps(&mut app, 1);
     let bodies = |app: &App| app.world().resource::<SolverStats>().bodies;
     for _ in 0..30 {
         app.update();
