@@ -124,7 +124,7 @@ fn penetration(app: &App, bar: Entity, half: Vec3, ball: Entity, r: f32) -> f32 
 /// contact's rows had no angular terms, so the bar's rotation never reached the contact's
 /// normal velocity. Now the ball is pushed (it leaves at more than 5 m/s: the bar meets it at
 /// 10 rad/s x 0.67 m = 6.7 m/s and it slides out to the tip, 10 m/s; measured 10.1-11.7), and
-/// the bar sinks less than 6 cm into it (measured 4.2-5.5 cm, deepest as the ball slides out
+/// the bar sinks less than 6 cm into it (measured 3.7-5.5 cm, deepest as the ball slides out
 /// along the bar). That bound is not small: each contact keeps its start-of-step normal for the
 /// whole step while the bar's face turns 0.17 rad, so pushing the ball around the circle lags
 /// by about `w^2 r dt^2 / 2` (1.1 cm per step at r = 0.8 m) until the ball leaves the tip.
