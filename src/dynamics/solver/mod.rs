@@ -267,12 +267,13 @@ pub fn step(
     }
     prepare_contacts(bodies, contacts);
 
-    let propagation = |threshold: f32, gravity: Vec3| Propagation {
+    let propagation = |threshold: f32, gravity: Vec3, integrated_gravity: Vec3| Propagation {
         threshold,
         chain_threshold: config.velocity_tolerance,
         max_sweeps: config.max_propagation_sweeps,
         dt,
         gravity,
+        integrated_gravity,
         substeps: config.substeps.max(1),
         max_block_iterations: config.max_block_iterations,
         velocity_tolerance: config.velocity_tolerance,
@@ -283,7 +284,7 @@ pub fn step(
                 bodies,
                 contacts,
                 manifolds,
-                &propagation(config.restitution_threshold, gravity),
+                &propagation(config.restitution_threshold, gravity, Vec3::ZERO),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -342,7 +343,7 @@ pub fn step(
                 bodies,
                 contacts,
                 &singles,
-                &propagation(config.velocity_tolerance, Vec3::ZERO),
+                &propagation(config.velocity_tolerance, Vec3::ZERO, gravity),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
