@@ -20,8 +20,8 @@ use bevy::prelude::*;
 pub use body::{Motion, SolverBody, integrate_positions, integrate_velocities};
 pub use contact::{ContactConstraint, prepare_contacts, warm_start};
 use iterative::{
-    Block, ManifoldSolve, RigidRows, Settling, Softness, Support, apply_restitution, jacobi_sweep,
-    manifold_sweep, sequential_sweep, soft_sweep,
+    Arrival, Block, ManifoldSolve, RigidRows, Settling, Softness, Support, apply_restitution,
+    arrival, jacobi_sweep, manifold_sweep, sequential_sweep, soft_sweep,
 };
 use propagation::{Propagation, propagate};
 
@@ -386,13 +386,57 @@ fn rigid_substeps(
     };
     let mut deltas = Vec::new();
     let mut settling = Settling::default();
-    // Restitution targets come from the normal velocity at preparation, before this step's
-    // gravity: the approach the contact arrived with. Taken after gravity, a resting contact
-    // approaches at `g h` every step, which exceeds the restitution threshold at large steps
-    // (0.65 m/s at 1/15 s), so a resting ball with e = 0.8 was launched every step and gained
-    // 1.36 J (Jacobi at 1/30 s: 0.09 J).
+    // Restitution targets come from each row's approach at the start of its substep, before
+    // the substep's gravity, and only for rows whose gap closes within it (see `arrival`).
+    let mut arrivals: Vec<Arrival> = Vec::with_capacity(contacts.len());
+    // Per body: the earliest time into the substep of a bounce it takes part in, and its
+    // velocities before the substep's solve.
+    let mut bounced: Vec<(usize, f32, Vec3, Vec3)> = Vec::new();
     for _ in 0..n {
         integrate_velocities(bodies, gravity, h);
+        // The approach without this substep's gravity, but with its gyroscopic update of the
+        // spin: the velocities the rows are then solved from.
+        arrivals.clear();
+        arrivals.extend(contacts.iter().map(|c| {
+            let gn = propagation::relative_gravity(c, bodies, gravity);
+            arrival(
+                c,
+                c.normal_velocity(bodies) - gn * h,
+                c.current_separation(bodies),
+                gn,
+                config.restitution_threshold,
+                h,
+            )
+        }));
+        // A bounce at time t into the substep: its bodies move on their free paths until t,
+        // `v t + g t^2 / 2`, and at their solved velocities after, so each is owed
+        // `(v - v') t + g t^2 / 2` of position over what integration gives (`v` the velocity
+        // at the start of the substep, before gravity, `v'` the solved one), and its rotation
+        // `(w - w') t`, as an impact of propagation is. Without it a body bounces where it was at
+        // the start of the substep, up to `|v| h` short of the surface, and a ball bouncing
+        // under gravity gains the potential energy of that height: at 1/15 s an e = 0.8 ball
+        // rose 0.15 m above its drop height (`step_sweep_sequential_impulses`).
+        bounced.clear();
+        for (c, a) in contacts.iter().zip(&arrivals) {
+            if a.bounce.is_nan() || a.time <= 0.0 {
+                continue;
+            }
+            for i in [c.body_a, c.body_b] {
+                let b = &bodies[i];
+                if b.motion != Motion::Dynamic {
+                    continue;
+                }
+                match bounced.iter_mut().find(|e| e.0 == i) {
+                    Some(e) => e.1 = e.1.min(a.time),
+                    None => bounced.push((
+                        i,
+                        a.time,
+                        b.linear_velocity - gravity * h,
+                        b.angular_velocity,
+                    )),
+                }
+            }
+        }
         warm_start(bodies, contacts);
         for _ in 0..config.iterations.max(1) {
             stats.iterations += 1;
@@ -401,12 +445,13 @@ fn rigid_substeps(
                     bodies,
                     contacts,
                     &rows,
+                    &arrivals,
                     &counts,
                     config.mass_splitting,
                     &mut deltas,
                 )
             } else {
-                sequential_sweep(bodies, contacts, &rows, &mut settling)
+                sequential_sweep(bodies, contacts, &rows, &arrivals, &mut settling)
             };
             // Only an exact convergence ends the iterations early: the largest change is taken
             // over the whole world, so stopping at a tolerance would let one island's iteration
@@ -416,10 +461,15 @@ fn rigid_substeps(
                 break;
             }
         }
+        for &(i, t, v, w) in &bounced {
+            let b = &mut bodies[i];
+            b.impact_offset += (v - b.linear_velocity) * t + 0.5 * gravity * t * t;
+            b.impact_rotation += (w - b.angular_velocity) * t;
+        }
         integrate_positions(bodies, gravity, h);
-        for c in contacts.iter_mut() {
+        for (c, a) in contacts.iter_mut().zip(&arrivals) {
             c.total_impulse += c.normal_impulse;
-            if c.approach_velocity < -config.restitution_threshold && c.normal_impulse > 0.0 {
+            if a.impact && c.normal_impulse > 0.0 {
                 c.impact = true;
             }
         }
