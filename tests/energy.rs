@@ -838,7 +838,6 @@ fn energy_never_rises_soft_step() {
 }
 
 #[test]
-#[ignore = "fails (issue 8): 14 of 200 worlds gain energy, 1.001x-1.6x (36 before Baumgarte was capped at the push-out speed), 12 of them clean spawns"]
 fn energy_never_rises_jacobi() {
     random_worlds(SolverMethod::Jacobi, 0..SHORT);
 }

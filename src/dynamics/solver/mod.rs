@@ -18,7 +18,7 @@ use std::ops::Range;
 use bevy::prelude::*;
 
 pub use body::{Motion, SolverBody, integrate_positions, integrate_velocities};
-pub use contact::{ContactConstraint, prepare_contacts, warm_start};
+pub use contact::{ContactConstraint, prepare_contacts, refresh_inertia, warm_start};
 use iterative::{
     Arrival, Block, ManifoldSolve, RigidRows, Settling, Softness, Support, apply_restitution,
     arrival, jacobi_sweep, manifold_sweep, sequential_sweep, soft_sweep,
@@ -328,6 +328,10 @@ pub fn step(
                 dt,
                 &mut stats,
             );
+            // The bounce is solved with the inertia the bodies have now (see
+            // `refresh_inertia`); the substeps keep the rows of the start of the step, as Box2D
+            // does.
+            refresh_inertia(bodies, contacts);
             apply_restitution(
                 bodies,
                 contacts,
@@ -392,7 +396,10 @@ fn rigid_substeps(
     // Per body: the earliest time into the substep of a bounce it takes part in, and its
     // velocities before the substep's solve.
     let mut bounced: Vec<(usize, f32, Vec3, Vec3)> = Vec::new();
-    for _ in 0..n {
+    for substep in 0..n {
+        if substep > 0 {
+            refresh_inertia(bodies, contacts);
+        }
         integrate_velocities(bodies, gravity, h);
         // The approach without this substep's gravity, but with its gyroscopic update of the
         // spin: the velocities the rows are then solved from.
