@@ -32,10 +32,10 @@ use propagation::{Propagation, propagate};
 /// | method | good at | costs | fails at (measured in `tests/methods_*.rs`, 60 Hz) |
 /// |---|---|---|---|
 /// | `Hybrid` (default) | impacts exact (cradle, stacked-ball drop, box landing flat without spin, simultaneous impacts solved together), never hops at rest, stacks of 20, a pyramid, 1000:1 pairs and piles of 4,000 stand awake, sinking 0.28 mm per contact; no energy gain in the random worlds of `tests/energy.rs` | one propagation sweep per wave of impacts + 4 soft substeps, each manifold a block | awake with friction, a 20-cube column sways (27 cm in 20 s) and a base-20 wall creeps; awake and frictionless, f32 rounding drifts bodies sideways slowly (sleeping stops both) |
-/// | `Propagation` | Newton's cradle and the stacked-ball drop exact in any contact order; corners meeting together are one event (a box lands flat without spin) | sweeps until nothing approaches | resting boxes with e > 0 hop (no threshold); no position correction, so stacks under large loads sink; some random worlds gain energy (up to 6%) |
-/// | `SequentialImpulses` | resting contact exactly still; warm-started baseline | `iterations` sweeps, fewer only when exactly settled | cradle and stacked-ball drop give the LCP answer; one iteration spins a flat box (1.26 rad/s); stacks and mass ratios fall; some random worlds gain energy (up to 32%) |
-/// | `SoftStep` | Box2D v3: robust push-out, bounded sink; restitution pass repeated until coupled contacts agree | `substeps` x (`iterations` + relax) sweeps | restitution only for contacts approaching at preparation (cradle and drop lose 24-25% energy); frictionless stacks and mass ratios fall; some random worlds gain energy (up to 14%) |
-/// | `Jacobi` | order independence: symmetric scenes stay symmetric | `iterations` sweeps | slow convergence with mass splitting (flat box rebounds at 0.94 for e = 1, 5-ball cradle far off); stacks bounce; some random worlds gain energy (up to 60%) |
+/// | `Propagation` | Newton's cradle and the stacked-ball drop exact in any contact order; corners meeting together are one event (a box lands flat without spin) | sweeps until nothing approaches | no position correction, so stacks under large loads sink; no energy gain in the random worlds of `tests/energy.rs` |
+/// | `SequentialImpulses` | resting contact exactly still; warm-started baseline | `iterations` sweeps, fewer only when exactly settled | cradle and stacked-ball drop give the LCP answer; one iteration spins a flat box (1.26 rad/s); stacks and mass ratios fall; restitution with friction on a fast-spinning body can gain energy (3 of 200 random worlds, up to 0.6%) |
+/// | `SoftStep` | Box2D v3: robust push-out, bounded sink; restitution pass repeated until coupled contacts agree | `substeps` x (`iterations` + relax) sweeps | restitution only for contacts approaching at preparation (cradle and drop lose 24-25% energy); frictionless stacks and mass ratios fall; some random worlds gain energy (3 of 200, up to 6%) |
+/// | `Jacobi` | order independence: symmetric scenes stay symmetric | `iterations` sweeps | slow convergence with mass splitting (flat box rebounds at 0.94 for e = 1, 5-ball cradle far off); stacks bounce; no energy gain in the random worlds of `tests/energy.rs` |
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SolverMethod {
     /// Impacts (approach faster than [`SolverConfig::restitution_threshold`]) resolved by
@@ -64,11 +64,13 @@ pub enum SolverMethod {
     /// Every approaching contact resolved as an isolated two-body impact with the impulse
     /// formula, sweeping until none approaches (at most
     /// [`SolverConfig::max_propagation_sweeps`]). Stages: prepare, gravity, propagate,
-    /// integrate positions. No position correction.
+    /// integrate positions. Only the approach a contact had before the step's gravity is
+    /// bounced, so a resting body never hops. No position correction.
     Propagation,
     /// Projected Gauss-Seidel with accumulated impulses clamped at >= 0, warm starting,
-    /// restitution targets from the pre-solve normal velocity, and Baumgarte position
-    /// correction. Stages per substep: gravity, warm start, `iterations` sweeps, integrate.
+    /// restitution targets for the rows whose gap closes within the substep, from their
+    /// approach then (see `iterative::arrival`), and Baumgarte position correction. Stages per
+    /// substep: gravity, warm start, `iterations` sweeps, integrate.
     SequentialImpulses,
     /// Box2D v3's soft step: per substep gravity, warm start, soft solve, integrate positions,
     /// relax; then one restitution pass using the approach speed recorded at preparation.
