@@ -405,7 +405,9 @@ struct EventScratch {
 /// pair's relative gravity along the normal (pulling them together, `g_n < 0`), the row met at
 /// `v_n - g_n (dt - t)` and gravity then acts on for `dt - t`, so the target is
 /// `-e (v_n - g_n (dt - t)) + g_n (dt - t)`, and never below 0: a row whose bounce gravity
-/// would undo within the step rests. A resting contact, whose whole approach is the step's
+/// would undo within the step rests. (Without integrated gravity the target is `-e v_n` as it
+/// always was, bit for bit: `v_n`, taken at the anchors moved to the time of impact, may be
+/// positive there, and the hybrid method's impacts are left exactly as they were.) A resting contact, whose whole approach is the step's
 /// `g dt`, is then inelastic whatever its restitution. (Bouncing `v_n` itself bounced the
 /// step's gravity too: an e = 1 box resting on the ground hopped 3 cm, and in the energy
 /// property test a 4 g capsule gained 5-20% of its energy per bounce, seed 111.) A pull apart
@@ -465,8 +467,12 @@ fn resolve_event(
             let target = if closing {
                 let vn = row.normal_velocity(bodies);
                 let after = integrated.min(0.0) * (params.dt - toi);
-                let arrived = (vn - after).min(0.0);
-                (-row.restitution * arrived + after).max(0.0) - (1.0 + row.restitution) * gn * toi
+                let bounce = if after < 0.0 {
+                    (-row.restitution * (vn - after).min(0.0) + after).max(0.0)
+                } else {
+                    -row.restitution * vn
+                };
+                bounce - (1.0 + row.restitution) * gn * toi
             } else {
                 f32::NAN
             };
