@@ -18,10 +18,10 @@ use std::ops::Range;
 use bevy::prelude::*;
 
 pub use body::{Motion, SolverBody, integrate_positions, integrate_velocities};
-pub use contact::{ContactConstraint, prepare_contacts, warm_start};
+pub use contact::{ContactConstraint, prepare_contacts, refresh_inertia, warm_start};
 use iterative::{
-    Block, ManifoldSolve, RigidRows, Settling, Softness, Support, apply_restitution, jacobi_sweep,
-    manifold_sweep, sequential_sweep, soft_sweep,
+    Arrival, Block, ManifoldSolve, RigidRows, Settling, Softness, Support, apply_restitution,
+    arrival, jacobi_sweep, manifold_sweep, sequential_sweep, soft_sweep,
 };
 use propagation::{Propagation, propagate};
 
@@ -32,10 +32,10 @@ use propagation::{Propagation, propagate};
 /// | method | good at | costs | fails at (measured in `tests/methods_*.rs`, 60 Hz) |
 /// |---|---|---|---|
 /// | `Hybrid` (default) | impacts exact (cradle, stacked-ball drop, box landing flat without spin, simultaneous impacts solved together), never hops at rest, stacks of 20, a pyramid, 1000:1 pairs and piles of 4,000 stand awake, sinking 0.28 mm per contact; no energy gain in the random worlds of `tests/energy.rs` | one propagation sweep per wave of impacts + 4 soft substeps, each manifold a block | awake with friction, a 20-cube column sways (27 cm in 20 s) and a base-20 wall creeps; awake and frictionless, f32 rounding drifts bodies sideways slowly (sleeping stops both) |
-/// | `Propagation` | Newton's cradle and the stacked-ball drop exact in any contact order; corners meeting together are one event (a box lands flat without spin) | sweeps until nothing approaches | resting boxes with e > 0 hop (no threshold); no position correction, so stacks under large loads sink; some random worlds gain energy (up to 6%) |
-/// | `SequentialImpulses` | resting contact exactly still; warm-started baseline | `iterations` sweeps, fewer only when exactly settled | cradle and stacked-ball drop give the LCP answer; one iteration spins a flat box (1.26 rad/s); stacks and mass ratios fall; some random worlds gain energy (up to 32%) |
-/// | `SoftStep` | Box2D v3: robust push-out, bounded sink; restitution pass repeated until coupled contacts agree | `substeps` x (`iterations` + relax) sweeps | restitution only for contacts approaching at preparation (cradle and drop lose 24-25% energy); frictionless stacks and mass ratios fall; some random worlds gain energy (up to 14%) |
-/// | `Jacobi` | order independence: symmetric scenes stay symmetric | `iterations` sweeps | slow convergence with mass splitting (flat box rebounds at 0.94 for e = 1, 5-ball cradle far off); stacks bounce; some random worlds gain energy (up to 60%) |
+/// | `Propagation` | Newton's cradle and the stacked-ball drop exact in any contact order; corners meeting together are one event (a box lands flat without spin) | sweeps until nothing approaches | no position correction, so stacks under large loads sink; no energy gain in the random worlds of `tests/energy.rs` |
+/// | `SequentialImpulses` | resting contact exactly still; warm-started baseline | `iterations` sweeps, fewer only when exactly settled | cradle and stacked-ball drop give the LCP answer; one iteration spins a flat box (1.26 rad/s); stacks and mass ratios fall; restitution with friction on a fast-spinning body can gain energy (3 of 200 random worlds, up to 0.6%) |
+/// | `SoftStep` | Box2D v3: robust push-out, bounded sink; restitution pass repeated until coupled contacts agree | `substeps` x (`iterations` + relax) sweeps | restitution only for contacts approaching at preparation (cradle and drop lose 24-25% energy); frictionless stacks and mass ratios fall; some random worlds gain energy (3 of 200, up to 6%) |
+/// | `Jacobi` | order independence: symmetric scenes stay symmetric | `iterations` sweeps | slow convergence with mass splitting (flat box rebounds at 0.94 for e = 1, 5-ball cradle far off); stacks bounce; no energy gain in the random worlds of `tests/energy.rs` |
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SolverMethod {
     /// Impacts (approach faster than [`SolverConfig::restitution_threshold`]) resolved by
@@ -64,11 +64,13 @@ pub enum SolverMethod {
     /// Every approaching contact resolved as an isolated two-body impact with the impulse
     /// formula, sweeping until none approaches (at most
     /// [`SolverConfig::max_propagation_sweeps`]). Stages: prepare, gravity, propagate,
-    /// integrate positions. No position correction.
+    /// integrate positions. Only the approach a contact had before the step's gravity is
+    /// bounced, so a resting body never hops. No position correction.
     Propagation,
     /// Projected Gauss-Seidel with accumulated impulses clamped at >= 0, warm starting,
-    /// restitution targets from the pre-solve normal velocity, and Baumgarte position
-    /// correction. Stages per substep: gravity, warm start, `iterations` sweeps, integrate.
+    /// restitution targets for the rows whose gap closes within the substep, from their
+    /// approach then (see `iterative::arrival`), and Baumgarte position correction. Stages per
+    /// substep: gravity, warm start, `iterations` sweeps, integrate.
     SequentialImpulses,
     /// Box2D v3's soft step: per substep gravity, warm start, soft solve, integrate positions,
     /// relax; then one restitution pass using the approach speed recorded at preparation.
@@ -271,12 +273,13 @@ pub fn step(
     }
     prepare_contacts(bodies, contacts);
 
-    let propagation = |threshold: f32, gravity: Vec3| Propagation {
+    let propagation = |threshold: f32, gravity: Vec3, integrated_gravity: Vec3| Propagation {
         threshold,
         chain_threshold: config.velocity_tolerance,
         max_sweeps: config.max_propagation_sweeps,
         dt,
         gravity,
+        integrated_gravity,
         substeps: config.substeps.max(1),
         max_block_iterations: config.max_block_iterations,
         velocity_tolerance: config.velocity_tolerance,
@@ -287,7 +290,7 @@ pub fn step(
                 bodies,
                 contacts,
                 manifolds,
-                &propagation(config.restitution_threshold, gravity),
+                &propagation(config.restitution_threshold, gravity, Vec3::ZERO),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -331,6 +334,10 @@ pub fn step(
                 dt,
                 &mut stats,
             );
+            // The bounce is solved with the inertia the bodies have now (see
+            // `refresh_inertia`); the substeps keep the rows of the start of the step, as Box2D
+            // does.
+            refresh_inertia(bodies, contacts);
             apply_restitution(
                 bodies,
                 contacts,
@@ -346,7 +353,7 @@ pub fn step(
                 bodies,
                 contacts,
                 &singles,
-                &propagation(config.velocity_tolerance, Vec3::ZERO),
+                &propagation(config.velocity_tolerance, Vec3::ZERO, gravity),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -389,13 +396,60 @@ fn rigid_substeps(
     };
     let mut deltas = Vec::new();
     let mut settling = Settling::default();
-    // Restitution targets come from the normal velocity at preparation, before this step's
-    // gravity: the approach the contact arrived with. Taken after gravity, a resting contact
-    // approaches at `g h` every step, which exceeds the restitution threshold at large steps
-    // (0.65 m/s at 1/15 s), so a resting ball with e = 0.8 was launched every step and gained
-    // 1.36 J (Jacobi at 1/30 s: 0.09 J).
-    for _ in 0..n {
+    // Restitution targets come from each row's approach at the start of its substep, before
+    // the substep's gravity, and only for rows whose gap closes within it (see `arrival`).
+    let mut arrivals: Vec<Arrival> = Vec::with_capacity(contacts.len());
+    // Per body: the earliest time into the substep of a bounce it takes part in, and its
+    // velocities before the substep's solve.
+    let mut bounced: Vec<(usize, f32, Vec3, Vec3)> = Vec::new();
+    for substep in 0..n {
+        if substep > 0 {
+            refresh_inertia(bodies, contacts);
+        }
         integrate_velocities(bodies, gravity, h);
+        // The approach without this substep's gravity, but with its gyroscopic update of the
+        // spin: the velocities the rows are then solved from.
+        arrivals.clear();
+        arrivals.extend(contacts.iter().map(|c| {
+            let gn = propagation::relative_gravity(c, bodies, gravity);
+            arrival(
+                c,
+                c.normal_velocity(bodies) - gn * h,
+                c.current_separation(bodies),
+                gn,
+                config.restitution_threshold,
+                h,
+            )
+        }));
+        // A bounce at time t into the substep: its bodies move on their free paths until t,
+        // `v t + g t^2 / 2`, and at their solved velocities after, so each is owed
+        // `(v - v') t + g t^2 / 2` of position over what integration gives (`v` the velocity
+        // at the start of the substep, before gravity, `v'` the solved one), and its rotation
+        // `(w - w') t`, as an impact of propagation is. Without it a body bounces where it was at
+        // the start of the substep, up to `|v| h` short of the surface, and a ball bouncing
+        // under gravity gains the potential energy of that height: at 1/15 s an e = 0.8 ball
+        // rose 0.15 m above its drop height (`step_sweep_sequential_impulses`).
+        bounced.clear();
+        for (c, a) in contacts.iter().zip(&arrivals) {
+            if a.bounce.is_nan() || a.time <= 0.0 {
+                continue;
+            }
+            for i in [c.body_a, c.body_b] {
+                let b = &bodies[i];
+                if b.motion != Motion::Dynamic {
+                    continue;
+                }
+                match bounced.iter_mut().find(|e| e.0 == i) {
+                    Some(e) => e.1 = e.1.min(a.time),
+                    None => bounced.push((
+                        i,
+                        a.time,
+                        b.linear_velocity - gravity * h,
+                        b.angular_velocity,
+                    )),
+                }
+            }
+        }
         warm_start(bodies, contacts);
         for _ in 0..config.iterations.max(1) {
             stats.iterations += 1;
@@ -404,12 +458,13 @@ fn rigid_substeps(
                     bodies,
                     contacts,
                     &rows,
+                    &arrivals,
                     &counts,
                     config.mass_splitting,
                     &mut deltas,
                 )
             } else {
-                sequential_sweep(bodies, contacts, &rows, &mut settling)
+                sequential_sweep(bodies, contacts, &rows, &arrivals, &mut settling)
             };
             // Only an exact convergence ends the iterations early: the largest change is taken
             // over the whole world, so stopping at a tolerance would let one island's iteration
@@ -419,10 +474,15 @@ fn rigid_substeps(
                 break;
             }
         }
+        for &(i, t, v, w) in &bounced {
+            let b = &mut bodies[i];
+            b.impact_offset += (v - b.linear_velocity) * t + 0.5 * gravity * t * t;
+            b.impact_rotation += (w - b.angular_velocity) * t;
+        }
         integrate_positions(bodies, gravity, h);
-        for c in contacts.iter_mut() {
+        for (c, a) in contacts.iter_mut().zip(&arrivals) {
             c.total_impulse += c.normal_impulse;
-            if c.approach_velocity < -config.restitution_threshold && c.normal_impulse > 0.0 {
+            if a.impact && c.normal_impulse > 0.0 {
                 c.impact = true;
             }
         }

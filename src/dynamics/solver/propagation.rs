@@ -42,6 +42,10 @@ pub struct Propagation {
     /// Gravity, m/s^2, when it is integrated *after* this pass over the same step (the hybrid
     /// method); zero when velocities already include it. See [`propagate`].
     pub gravity: Vec3,
+    /// Gravity, m/s^2, that the velocities already include over this step (the propagation
+    /// method integrates it before the pass); zero otherwise. The part of an approach it made
+    /// is not bounced: see [`resolve_event`].
+    pub integrated_gravity: Vec3,
     /// Substeps the later integration uses (1 when there is none): semi-implicit Euler over
     /// `n` substeps moves a body `g dt^2 (1 + 1/n) / 2` under gravity, a little more than the
     /// exact `g dt^2 / 2`, and the closing test uses that larger figure.
@@ -306,7 +310,7 @@ fn closes_within(s: f32, vn: f32, gn: f32, params: &Propagation) -> bool {
 /// The earliest `t >= 0` with `s + vn t + gn t^2 / 2 = 0` (for `s > 0`, `vn < 0`), or 0 when
 /// the gap is already closed.
 #[inline]
-fn time_of_impact(s: f32, vn: f32, gn: f32) -> f32 {
+pub(super) fn time_of_impact(s: f32, vn: f32, gn: f32) -> f32 {
     if s <= 0.0 {
         return 0.0;
     }
@@ -321,7 +325,7 @@ fn time_of_impact(s: f32, vn: f32, gn: f32) -> f32 {
 /// Relative acceleration of the pair along the normal due to gravity, `(g_B - g_A) . n`, with
 /// gravity acting on dynamic bodies only.
 #[inline]
-fn relative_gravity(c: &ContactConstraint, bodies: &[SolverBody], gravity: Vec3) -> f32 {
+pub(super) fn relative_gravity(c: &ContactConstraint, bodies: &[SolverBody], gravity: Vec3) -> f32 {
     if gravity == Vec3::ZERO {
         return 0.0;
     }
@@ -395,6 +399,19 @@ struct EventScratch {
 /// block solution never adds energy: with `v'_i = -e v_i` on every row that pushes and
 /// `lambda_i = 0` on the others, the energy change `sum lambda_i (v_i + v'_i) / 2 =
 /// sum lambda_i (1 - e) v_i / 2` is at most 0, since `v_i < 0`.
+///
+/// When the velocities already include the step's gravity (`params.integrated_gravity`, the
+/// propagation method), only the approach the row had when it met is bounced: with `g_n` the
+/// pair's relative gravity along the normal (pulling them together, `g_n < 0`), the row met at
+/// `v_n - g_n (dt - t)` and gravity then acts on for `dt - t`, so the target is
+/// `-e (v_n - g_n (dt - t)) + g_n (dt - t)`, and never below 0: a row whose bounce gravity
+/// would undo within the step rests. (Without integrated gravity the target is `-e v_n` as it
+/// always was, bit for bit: `v_n`, taken at the anchors moved to the time of impact, may be
+/// positive there, and the hybrid method's impacts are left exactly as they were.) A resting contact, whose whole approach is the step's
+/// `g dt`, is then inelastic whatever its restitution. (Bouncing `v_n` itself bounced the
+/// step's gravity too: an e = 1 box resting on the ground hopped 3 cm, and in the energy
+/// property test a 4 g capsule gained 5-20% of its energy per bounce, seed 111.) A pull apart
+/// (`g_n > 0`) is left out of the target, which can only lower it.
 #[allow(clippy::too_many_arguments)]
 fn resolve_event(
     bodies: &mut [SolverBody],
@@ -424,6 +441,7 @@ fn resolve_event(
             }
         }
         let gn = relative_gravity(first, bodies, params.gravity);
+        let integrated = relative_gravity(first, bodies, params.integrated_gravity);
         let (a, b) = (&bodies[ia], &bodies[ib]);
         let inverse = a.inverse_mass + b.inverse_mass;
         let (w_a, w_b) = if inverse > 0.0 {
@@ -448,7 +466,13 @@ fn resolve_event(
             // Points that are not closing within the step take no part (NaN marks them).
             let target = if closing {
                 let vn = row.normal_velocity(bodies);
-                -row.restitution * vn - (1.0 + row.restitution) * gn * toi
+                let after = integrated.min(0.0) * (params.dt - toi);
+                let bounce = if after < 0.0 {
+                    (-row.restitution * (vn - after).min(0.0) + after).max(0.0)
+                } else {
+                    -row.restitution * vn
+                };
+                bounce - (1.0 + row.restitution) * gn * toi
             } else {
                 f32::NAN
             };
@@ -530,6 +554,7 @@ mod tests {
             max_sweeps: 100,
             dt: 1.0 / 60.0,
             gravity: Vec3::ZERO,
+            integrated_gravity: Vec3::ZERO,
             substeps: 1,
             max_block_iterations: 64,
             velocity_tolerance: 1e-6,
