@@ -20,11 +20,8 @@ fn pair_set(app: &App) -> Vec<(Entity, Entity, bool)> {
         .collect()
 }
 
-/// A pyramid of 10 cubes falls asleep; for 60 more steps its pairs, their touching state and
-/// every pose stay exactly as they were, and no collision ends. A ball dropped onto it then
-/// wakes it, and comes to rest on the top cube.
-#[test]
-fn sleeping_pile_keeps_its_pairs_and_wakes() {
+/// A headless app with a pyramid of 10 cubes (base 4), stepped 1.5 s until every cube sleeps.
+fn asleep_pyramid() -> (App, Vec<Entity>) {
     let mut app = headless_app(60.0);
     let cubes = scenes::pyramid(app.world_mut(), 4);
     run_steps(&mut app, 90);
@@ -34,6 +31,15 @@ fn sleeping_pile_keeps_its_pairs_and_wakes() {
             .all(|&c| app.world().get::<Sleeping>(c).is_some()),
         "the pyramid fell asleep"
     );
+    (app, cubes)
+}
+
+/// A pyramid of 10 cubes falls asleep; for 60 more steps its pairs, their touching state and
+/// every pose stay exactly as they were, and no collision ends. A ball dropped onto it then
+/// wakes it, and comes to rest on the top cube.
+#[test]
+fn sleeping_pile_keeps_its_pairs_and_wakes() {
+    let (mut app, cubes) = asleep_pyramid();
     let pairs = pair_set(&app);
     // Ground under 4 cubes, 3 + 2 + 1 resting on two each, neighbours 0.05 m apart within
     // the margin-widened boxes: at least the 4 + 2 * 6 supporting pairs.
@@ -72,14 +78,7 @@ fn sleeping_pile_keeps_its_pairs_and_wakes() {
 /// dropped above it brings the pile back in: ground, ball and 10 cubes.
 #[test]
 fn sleeping_bodies_sit_the_step_out() {
-    let mut app = headless_app(60.0);
-    let cubes = scenes::pyramid(app.world_mut(), 4);
-    run_steps(&mut app, 90);
-    assert!(
-        cubes
-            .iter()
-            .all(|&c| app.world().get::<Sleeping>(c).is_some())
-    );
+    let (mut app, cubes) = asleep_pyramid();
     // Falling asleep at the end of a step, a body is read once more in the next (its marker
     // is new and its velocities were zeroed); from then on it sits out.
     run_steps(&mut app, 1);

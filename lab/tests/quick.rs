@@ -3,9 +3,10 @@
 
 use impact3d_lab::{Mode, Options, report, run, scenes, sweep};
 
-#[test]
-fn smoke_run_writes_csv_and_svg() {
-    let out = std::env::temp_dir().join(format!("impact3d-lab-test-{}", std::process::id()));
+/// A smoke run of impact3d alone into a fresh temporary folder named after `name`: the folder
+/// and the options.
+fn smoke_options(name: &str, sleeping_only: bool) -> (std::path::PathBuf, Options) {
+    let out = std::env::temp_dir().join(format!("impact3d-lab-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let options = Options {
         mode: Mode::Smoke,
@@ -13,8 +14,14 @@ fn smoke_run_writes_csv_and_svg() {
         out: out.clone(),
         verbose: false,
         only: Vec::new(),
-        sleeping_only: false,
+        sleeping_only,
     };
+    (out, options)
+}
+
+#[test]
+fn smoke_run_writes_csv_and_svg() {
+    let (out, options) = smoke_options("test", false);
     let rows = run(&options).expect("the run writes its files");
 
     let scenes = scenes::all(Mode::Smoke);
@@ -77,16 +84,7 @@ fn smoke_run_writes_csv_and_svg() {
 /// put to sleep) is exactly zero.
 #[test]
 fn smoke_sleeping_pair_writes_its_table() {
-    let out = std::env::temp_dir().join(format!("impact3d-lab-sleep-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    let options = Options {
-        mode: Mode::Smoke,
-        peers: false,
-        out: out.clone(),
-        verbose: false,
-        only: Vec::new(),
-        sleeping_only: true,
-    };
+    let (out, options) = smoke_options("sleep", true);
     assert!(run(&options).expect("the run writes its files").is_empty());
     let csv = std::fs::read_to_string(out.join("sleeping.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv

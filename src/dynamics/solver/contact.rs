@@ -109,6 +109,20 @@ impl ContactConstraint {
         }
     }
 
+    /// Derives the two tangent rows from the anchors and `tangents`: `I^-1 (r x t)` for each
+    /// body and tangent, and the effective masses along the tangents.
+    pub fn prepare_tangent_rows(&mut self, a: &SolverBody, b: &SolverBody) {
+        let linear = a.inverse_mass + b.inverse_mass;
+        for k in 0..2 {
+            let t = self.tangents[k];
+            let (ra_t, rb_t) = (self.anchor_a.cross(t), self.anchor_b.cross(t));
+            self.tangent_ang[0][k] = a.inverse_inertia * ra_t;
+            self.tangent_ang[1][k] = b.inverse_inertia * rb_t;
+            let kt = linear + ra_t.dot(self.tangent_ang[0][k]) + rb_t.dot(self.tangent_ang[1][k]);
+            self.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
+        }
+    }
+
     /// Derives the normal row from the anchors: `r x n`, `I^-1 (r x n)` for each body and the
     /// effective mass `1/K`. A row whose angular terms vanish is marked non-angular.
     pub fn prepare_normal_row(&mut self, a: &SolverBody, b: &SolverBody) {
@@ -217,7 +231,6 @@ pub fn prepare_contacts(bodies: &[SolverBody], contacts: &mut [ContactConstraint
         c.anchor_a = c.point - a.position;
         c.anchor_b = c.point - b.position;
         c.prepare_normal_row(a, b);
-        let linear = a.inverse_mass + b.inverse_mass;
         c.base_separation = c.separation - (c.anchor_b - c.anchor_a).dot(c.normal);
         c.approach_velocity = c.normal_velocity(bodies);
         c.max_normal_impulse = 0.0;
@@ -229,14 +242,7 @@ pub fn prepare_contacts(bodies: &[SolverBody], contacts: &mut [ContactConstraint
         if c.friction > 0.0 {
             let t0 = c.normal.any_orthonormal_vector();
             c.tangents = [t0, c.normal.cross(t0)];
-            for k in 0..2 {
-                let t = c.tangents[k];
-                let (ra_t, rb_t) = (c.anchor_a.cross(t), c.anchor_b.cross(t));
-                c.tangent_ang[0][k] = a.inverse_inertia * ra_t;
-                c.tangent_ang[1][k] = b.inverse_inertia * rb_t;
-                let kt = linear + ra_t.dot(c.tangent_ang[0][k]) + rb_t.dot(c.tangent_ang[1][k]);
-                c.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
-            }
+            c.prepare_tangent_rows(a, b);
         } else {
             c.tangent_impulse = [0.0; 2];
         }
@@ -266,15 +272,7 @@ pub fn refresh_inertia(bodies: &[SolverBody], contacts: &mut [ContactConstraint]
         }
         c.prepare_normal_row(a, b);
         if c.friction > 0.0 {
-            let linear = a.inverse_mass + b.inverse_mass;
-            for k in 0..2 {
-                let t = c.tangents[k];
-                let (ra_t, rb_t) = (c.anchor_a.cross(t), c.anchor_b.cross(t));
-                c.tangent_ang[0][k] = a.inverse_inertia * ra_t;
-                c.tangent_ang[1][k] = b.inverse_inertia * rb_t;
-                let kt = linear + ra_t.dot(c.tangent_ang[0][k]) + rb_t.dot(c.tangent_ang[1][k]);
-                c.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
-            }
+            c.prepare_tangent_rows(a, b);
         }
     }
 }
