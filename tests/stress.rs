@@ -498,9 +498,9 @@ fn long_jacobi() {
 // Stability targets of the default method.
 // ---------------------------------------------------------------------------------------------
 
-/// A headless app at 60 Hz with the default solver and sleeping off.
-fn awake_default() -> App {
-    let mut app = scenes::headless_app(60.0);
+/// A headless app at `hz` with the default solver and sleeping off.
+fn awake_default_at(hz: f64) -> App {
+    let mut app = scenes::headless_app(hz);
     app.insert_resource(SleepConfig {
         enabled: false,
         ..default()
@@ -508,32 +508,83 @@ fn awake_default() -> App {
     app
 }
 
-/// Issue 8: awake, friction 0.5, the base-20 wall (210 cubes) holds: its top cube moves less
-/// than 1 cm in 10 s. The 1 cm is the issue's criterion: well above the soft sink of the 20
-/// contacts under the top cube (20 x 0.28 mm = 5.5 mm), far below a collapse (0.22 m).
-#[test]
-#[ignore = "fails (issue 8): the top cube moves 11.2 cm in 10 s (criterion 1 cm; 2.11 m before the support hold): the two blocks under each cube do not converge (their share of its weight is set only by their soft coupling) and cubes at the wall's edge are pushed up; 10 s of 210 cubes, run in release"]
-fn wall_base20_holds_awake() {
-    let mut app = awake_default();
-    let cubes = scenes::pyramid_with(app.world_mut(), 20, false, 0.5);
+/// A headless app at 60 Hz with the default solver and sleeping off.
+fn awake_default() -> App {
+    awake_default_at(60.0)
+}
+
+/// `(largest displacement of the top cube, its displacement over the second half)`, m, of a
+/// pyramid wall (2D, base `base`, friction `friction`) standing `seconds` under `app`.
+fn wall_motion(mut app: App, base: usize, friction: f32, seconds: f32) -> (f32, f32) {
+    let hz = 1.0
+        / app
+            .world()
+            .resource::<Time<Fixed>>()
+            .timestep()
+            .as_secs_f32();
+    let steps = (seconds * hz).round() as u32;
+    let cubes = scenes::pyramid_with(app.world_mut(), base, false, friction);
     let top = *cubes.last().unwrap();
     let start = position(&app, top);
-    let mut moved = 0f32;
-    for _ in 0..600 {
+    let (mut moved, mut half) = (0f32, start);
+    for step in 0..steps {
         app.update();
         moved = moved.max(position(&app, top).distance(start));
+        if step + 1 == steps / 2 {
+            half = position(&app, top);
+        }
     }
+    (moved, position(&app, top).distance(half))
+}
+
+/// Issue 8: awake, friction 0.5, the base-20 wall (210 cubes) holds: its top cube moves less
+/// than 1 cm in 10 s. The 1 cm is the issue's criterion: well above the soft sink of the 20
+/// contacts under the top cube with load-scaled stiffness (20 x 0.28 mm = 5.5 mm), far below a
+/// collapse (0.22 m).
+///
+/// Pinned: the wall is stable (see `walls_with_friction_settle_awake`) but the top cube sinks
+/// 3.1 cm (1.3 cm of it sideways, as the wall spreads) in the first half second: its cubes rest
+/// on two supports each, and such manifolds are solved with the stiffness of their own
+/// effective mass, not of the load they carry (`release_frictional_groups` in the solver says
+/// why). Before that the wall rocked on its held supports and its top moved 10.4 cm, still
+/// growing (2.11 m before the support hold).
+#[test]
+#[ignore = "fails (issue 8): the top cube moves 3.1 cm in 10 s (criterion 1 cm), nearly all of it the soft sink of the first half second (10.4 cm and growing before); 10 s of 210 cubes, run in release"]
+fn wall_base20_holds_awake() {
+    let (moved, _) = wall_motion(awake_default(), 20, 0.5, 10.0);
     assert!(moved < 0.01, "the wall's top cube moved {moved} m in 10 s");
 }
 
-/// The largest sideways displacement, m, of the top of a column of 20 cubes with friction 0.5
-/// in 20 s (1,200 steps of `app`).
-fn column20_friction_drift(mut app: App) -> f32 {
-    let cubes = scenes::column(app.world_mut(), 20, 0.5, 1.0);
+/// Issue 8: awake walls with friction settle and stay: the top cube moves less than 1 mm over
+/// the second half of the run (a wall that rocks or creeps moves centimetres: the base-20 wall
+/// moved 10 cm in 10 s, growing, before its multi-support manifolds were released from their
+/// held supports), and less than 4 cm in all (its soft sink, measured 3.1 cm for base 20).
+/// Measured over the second half: 0.1 mm (base 20, friction 0.5, 60 Hz).
+#[test]
+fn walls_with_friction_settle_awake() {
+    for (base, friction, hz, seconds) in [(20, 0.5, 60.0, 10.0), (10, 1.0, 120.0, 5.0)] {
+        let (moved, late) = wall_motion(awake_default_at(hz), base, friction, seconds);
+        assert!(
+            late < 1e-3 && moved < 0.04,
+            "base {base}, friction {friction}, {hz} Hz: the top moved {moved} m, {late} m in the second half"
+        );
+    }
+}
+
+/// The largest sideways displacement, m, of the top of a column of `n` cubes (alternating 1 kg
+/// and `ratio` kg) with friction `friction`, standing `seconds` under `app`.
+fn column_drift(mut app: App, n: usize, friction: f32, ratio: f32, seconds: f32) -> f32 {
+    let hz = 1.0
+        / app
+            .world()
+            .resource::<Time<Fixed>>()
+            .timestep()
+            .as_secs_f32();
+    let cubes = scenes::column(app.world_mut(), n, friction, ratio);
     let top = *cubes.last().unwrap();
     let start = position(&app, top);
     let mut drift = 0f32;
-    for _ in 0..1200 {
+    for _ in 0..(seconds * hz).round() as u32 {
         app.update();
         let d = position(&app, top) - start;
         drift = drift.max(Vec2::new(d.x, d.z).length());
@@ -544,34 +595,54 @@ fn column20_friction_drift(mut app: App) -> f32 {
 /// Issue 8: awake, friction 0.5, a column of 20 cubes drifts less than 1 mm sideways in 20 s
 /// (the top cube's horizontal displacement; its vertical sink, 20 x 0.28 mm, is not drift).
 /// Friction holds a column against sideways motion, so the 1 mm is only rounding's room.
+/// Measured 0.23 mm (27 cm before a manifold with friction was solved point by point with
+/// load-scaled soft rows: see `solve_block`).
 #[test]
-#[ignore = "fails (issue 8): the top cube drifts 27 cm sideways in 20 s (criterion 1 mm): the column rocks in a growing cone, fed by the block solve's early-out at velocity_tolerance (see column20_friction_holds_at_tight_tolerance and the README's pinned failures)"]
 fn column20_friction_holds_awake() {
-    let drift = column20_friction_drift(awake_default());
+    let drift = column_drift(awake_default(), 20, 0.5, 1.0, 20.0);
     assert!(
         drift < 1e-3,
         "the column's top cube drifted {drift} m sideways in 20 s"
     );
 }
 
-/// The cause of the column's sway (issue 8), isolated: the same 20-cube column with friction
-/// 0.5 holds when the manifold blocks are solved to `velocity_tolerance = 1e-7` m/s instead of
-/// the default 1e-4. Each block then ends with no tilt left for friction to store and feed
-/// back. Measured: 1 um of drift in 20 s (27 cm at the default), at no extra cost for the
-/// column (a wall of base 10 costs 11 times as much, which is why it is not the default). The
-/// bound, 0.1 mm, is 100 times the measured drift and 10 times below the issue's criterion.
+/// Issue 8, the column's family: counts, frictions, step rates and a mass ratio, awake for
+/// 20 s. Bounds: 1 mm for uniform columns (the issue's criterion); 1 cm for the column
+/// alternating 1 kg and 10 kg, whose heavy cubes tilt their light supports' soft rows ten times
+/// as much (measured 2.0 mm; 23 cm before). Measured (mm): 10 cubes, friction 0.2: 0.12; 20,
+/// friction 1.0: 0.23; 20 at 120 Hz: 0.07. Friction's value does not enter while no contact
+/// slides: 0.1 and 1.0 give the same drift as 0.5.
 #[test]
-fn column20_friction_holds_at_tight_tolerance() {
-    let mut app = awake_default();
-    app.insert_resource(SolverConfig {
-        velocity_tolerance: 1e-7,
-        ..default()
-    });
-    let drift = column20_friction_drift(app);
-    assert!(
-        drift < 1e-4,
-        "the column's top cube drifted {drift} m sideways in 20 s"
-    );
+fn column_friction_family_holds_awake() {
+    for (n, friction, ratio, hz, bound) in [
+        (10, 0.2, 1.0, 60.0, 1e-3),
+        (20, 1.0, 1.0, 60.0, 1e-3),
+        (20, 0.5, 1.0, 120.0, 1e-3),
+        (20, 0.5, 10.0, 60.0, 1e-2),
+    ] {
+        let drift = column_drift(awake_default_at(hz), n, friction, ratio, 20.0);
+        assert!(
+            drift < bound,
+            "{n} cubes, friction {friction}, ratio {ratio}, {hz} Hz: the top drifted {drift} m"
+        );
+    }
+}
+
+/// Issue 8, the members of the column's family that still fail (each 1 mm criterion, 20 s
+/// awake, friction 0.5): 30 cubes drift 4.2 cm (39 cm before); 20 cubes at 30 Hz drift 0.30 m
+/// (collapsed before); 20 cubes alternating 1 kg and 100 kg collapse (as before). The soft tilt
+/// of a row carrying a load is set by its share of that load at the contact frequency, which
+/// the step rate caps; taller or heavier columns need it stiffer than that.
+#[test]
+#[ignore = "fails (issue 8): 30 cubes drift 4.2 cm; 20 cubes at 30 Hz 0.30 m; 20 cubes alternating 1:100 collapse"]
+fn column_friction_family_pinned() {
+    for (n, ratio, hz) in [(30, 1.0, 60.0), (20, 1.0, 30.0), (20, 100.0, 60.0)] {
+        let drift = column_drift(awake_default_at(hz), n, 0.5, ratio, 20.0);
+        assert!(
+            drift < 1e-3,
+            "{n} cubes, ratio {ratio}, {hz} Hz: the top drifted {drift} m"
+        );
+    }
 }
 
 /// Issue 8: the frictionless 1000:1 pair (a 1000 kg cube on a 1 kg cube) holds awake as today:
