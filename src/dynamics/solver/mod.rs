@@ -283,6 +283,7 @@ pub fn step(
         substeps: config.substeps.max(1),
         max_block_iterations: config.max_block_iterations,
         velocity_tolerance: config.velocity_tolerance,
+        touch: config.linear_slop,
     };
     match config.method {
         SolverMethod::Hybrid => {
@@ -305,7 +306,7 @@ pub fn step(
                     &mut stats,
                 );
             } else {
-                let mut blocks = shock_order(bodies, contacts, manifolds);
+                let mut blocks = shock_order(bodies, contacts, manifolds, config.linear_slop);
                 // The sweeps visit the blocks in shock order: lay the contacts out in that
                 // order, so that they read them in sequence rather than all over the slice.
                 let (mut ordered, origin) = in_block_order(contacts, &mut blocks);
@@ -538,6 +539,7 @@ fn shock_order(
     bodies: &[SolverBody],
     contacts: &[ContactConstraint],
     manifolds: &[Range<usize>],
+    touch: f32,
 ) -> Vec<Block> {
     let covered = manifolds.iter().map(|r| r.len()).sum::<usize>() == contacts.len()
         && manifolds
@@ -561,8 +563,13 @@ fn shock_order(
             }
         })
         .collect();
+    // Only touching manifolds (a point within `touch`) make levels: a speculative contact is no
+    // support. (With it, a die resting on another had the level of the lower die: at 1 mm the
+    // step's fall `g dt^2`, 2.7 mm at 60 Hz, reaches the ground through the lower die, and the
+    // pair of dice was then solved two-body, with no support held and no load carried.)
     let pairs: Vec<(usize, usize)> = ranges
         .iter()
+        .filter(|r| touches(&contacts[(*r).clone()], touch))
         .map(|r| (contacts[r.start].body_a, contacts[r.start].body_b))
         .collect();
     loop {
@@ -603,9 +610,9 @@ fn shock_order(
         .collect();
     blocks.sort_by_key(|(key, _)| *key);
     let mut blocks: Vec<Block> = blocks.into_iter().map(|(_, b)| b).collect();
-    support_holds(bodies, contacts, &mut blocks);
+    support_holds(bodies, contacts, &mut blocks, touch);
     release_frictional_groups(bodies.len(), contacts, &mut blocks);
-    carried_loads(bodies, contacts, &mut blocks);
+    carried_loads(bodies, contacts, &mut blocks, touch);
     blocks
 }
 
@@ -642,6 +649,12 @@ fn release_frictional_groups(bodies: usize, contacts: &[ContactConstraint], bloc
             block.hold = 0.0;
         }
     }
+}
+
+/// Some row of the manifold can push and is within `touch` (m) of touching.
+fn touches(rows: &[ContactConstraint], touch: f32) -> bool {
+    rows.iter()
+        .any(|c| c.separation <= touch && c.normal_mass > 0.0)
 }
 
 /// Copies `contacts` in the order of `blocks` and points each block at its copy. Returns the
@@ -709,12 +722,15 @@ const MAX_SUPPORTS: usize = 8;
 ///   points (projected along the mean support normal); a load outside it tips S, so then the
 ///   hold is 0.
 ///
-/// Only touching points (separation at most [`crate::collision::narrow_phase::TOUCH_DISTANCE`])
-/// support. Under-estimating the hold is safe: a hold of 0 is the plain two-body solve, which
+/// Only touching points (separation at most `touch`, the length-scaled linear slop) support. Under-estimating the hold is safe: a hold of 0 is the plain two-body solve, which
 /// never adds energy; over-estimating it is what added energy.
-fn support_holds(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: &mut [Block]) {
-    use crate::collision::narrow_phase::TOUCH_DISTANCE;
-    let touching = |c: &ContactConstraint| c.separation <= TOUCH_DISTANCE && c.normal_mass > 0.0;
+fn support_holds(
+    bodies: &[SolverBody],
+    contacts: &[ContactConstraint],
+    blocks: &mut [Block],
+    touch: f32,
+) {
+    let touching = |c: &ContactConstraint| c.separation <= touch && c.normal_mass > 0.0;
     // The support entries of each body, in one buffer: body `i` has at most `room[i]` of them,
     // at `start[i]..start[i] + count[i]`.
     let mut start = vec![0u32; bodies.len() + 1];
@@ -956,7 +972,12 @@ fn cone_projection(n: Vec3, generators: &[Vec3]) -> (Vec3, u32) {
 /// on it: 5.5 mm for the 20-cube column, 0.28 mm under the 1000:1 pair. Only the
 /// regularisation changes, and with the support held fixed the stiffer block still converges
 /// in one pass: its only free body is the supported one.
-fn carried_loads(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: &mut [Block]) {
+fn carried_loads(
+    bodies: &[SolverBody],
+    contacts: &[ContactConstraint],
+    blocks: &mut [Block],
+    touch: f32,
+) {
     let mass = |i: usize| {
         let b = &bodies[i];
         if b.motion == Motion::Dynamic && b.inverse_mass > 0.0 {
@@ -966,12 +987,24 @@ fn carried_loads(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: 
         }
     };
     let mut load: Vec<f32> = (0..bodies.len()).map(mass).collect();
+    // Only touching blocks share the load; a speculative one (not touching) is given the whole
+    // load of its upper body, as if it were its only support, and passes none on.
+    let touching: Vec<bool> = blocks
+        .iter()
+        .map(|b| touches(&contacts[b.range.clone()], touch))
+        .collect();
     let mut supports = vec![0u32; bodies.len()];
-    for upper in blocks.iter().filter_map(|b| b.upper(contacts)) {
-        supports[upper] += 1;
+    for (block, _) in blocks.iter().zip(&touching).filter(|(_, t)| **t) {
+        if let Some(upper) = block.upper(contacts) {
+            supports[upper] += 1;
+        }
     }
-    for block in blocks.iter_mut().rev() {
+    for (block, &touching) in blocks.iter_mut().zip(&touching).rev() {
         if let Some((upper, lower)) = block.pair(contacts) {
+            if !touching {
+                block.load = load[upper];
+                continue;
+            }
             let share = load[upper] / supports[upper] as f32;
             block.load = share;
             if bodies[lower].motion == Motion::Dynamic {
@@ -1150,8 +1183,9 @@ mod tests {
             cube(Motion::Dynamic, 2.0),
             cube(Motion::Dynamic, 3.0),
         ];
-        let (contacts, ranges) = manifolds(&[(2, 3), (1, 2), (0, 1)]);
-        let blocks = shock_order(&bodies, &contacts, &ranges);
+        let (mut contacts, ranges) = manifolds(&[(2, 3), (1, 2), (0, 1)]);
+        prepare_contacts(&bodies, &mut contacts);
+        let blocks = shock_order(&bodies, &contacts, &ranges, 0.005);
         let order: Vec<(usize, Support, f32)> = blocks
             .iter()
             .map(|b| (b.range.start, b.support, b.load))
@@ -1179,8 +1213,9 @@ mod tests {
             cube(Motion::Dynamic, 2.0),
             cube(Motion::Dynamic, 1.0),
         ];
-        let (contacts, ranges) = manifolds(&[(1, 3), (0, 1), (4, 1), (2, 3), (0, 2), (0, 4)]);
-        let blocks = shock_order(&bodies, &contacts, &ranges);
+        let (mut contacts, ranges) = manifolds(&[(1, 3), (0, 1), (4, 1), (2, 3), (0, 2), (0, 4)]);
+        prepare_contacts(&bodies, &mut contacts);
+        let blocks = shock_order(&bodies, &contacts, &ranges, 0.005);
         let load = |start: usize| blocks.iter().find(|b| b.range.start == start).unwrap();
         assert_eq!(load(1).load, 2.0);
         assert_eq!(load(4).load, 2.0);
@@ -1245,7 +1280,7 @@ mod tests {
             ContactConstraint::new(1, 2, Vec3::new(0.0, 0.5, 0.0) + 0.5 * n, n, 0.0, 0.0, 0.0);
         let mut contacts = [floor, hit];
         prepare_contacts(&bodies, &mut contacts);
-        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2]);
+        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
         let struck = blocks.iter().find(|b| b.range == (1..2)).unwrap();
         let c2 = theta.cos().powi(2);
         assert!((struck.hold - c2).abs() < 1e-6, "{}", struck.hold);
@@ -1254,14 +1289,14 @@ mod tests {
         let column = ContactConstraint::new(1, 2, Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 0.0, 0.0, 0.0);
         let mut contacts = [floor, column];
         prepare_contacts(&bodies, &mut contacts);
-        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2]);
+        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
         let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
         assert!((top.hold - 1.0).abs() < 1e-6 && top.push.length() < 1e-6);
         // The lower ball only speculatively on the ground (a 1 cm gap): not held.
         let gap = ContactConstraint::new(0, 1, Vec3::ZERO, Vec3::Y, 0.01, 0.0, 0.0);
         let mut contacts = [gap, column];
         prepare_contacts(&bodies, &mut contacts);
-        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2]);
+        let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
         let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
         assert_eq!(top.hold, 0.0);
     }
