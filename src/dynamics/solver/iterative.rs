@@ -396,7 +396,16 @@ pub struct ManifoldSolve {
     pub max_block_iterations: u32,
     /// A manifold's iterations stop once no row changes by more than this, m/s.
     pub tolerance: f32,
+    /// `omega^2 / |g|`, 1/m: the soft contact's angular frequency squared over gravity's
+    /// magnitude (infinite without gravity). A load-carrying manifold with friction gets soft
+    /// rows only where this times its points' second moment is at least [`TILT_MARGIN`] times
+    /// its lever (see [`manifold_sweep`]).
+    pub tilt_stiffness: f32,
 }
+
+/// How much stiffer than its load's toppling moment the soft tilt of a load-carrying manifold
+/// must be, for its points to be solved as soft rows (see [`manifold_sweep`]).
+pub const TILT_MARGIN: f32 = 4.0;
 
 /// One sweep of the hybrid method's resting solve: the soft step with each body pair's
 /// manifold (`blocks`, contiguous ranges of `contacts` sharing one normal) solved as a block,
@@ -455,6 +464,16 @@ pub struct ManifoldSolve {
 /// stores it and feeds it back: a column of 20 cubes with friction 0.5 rocked in a growing
 /// cone (27 cm in 20 s; 0.23 mm point by point). The rigid tilt exists to stop a tilted face
 /// pushing a frictionless body sideways, which friction resists on its own.
+///
+/// A soft tilt must also hold its load up: tilted by `theta`, a manifold's rows push back with
+/// a moment `W omega^2 <r^2> theta / g` (their load-scaled springs at their distances `r` from
+/// the centroid), while the weight `W` it carries, its centre of mass a lever `l` above the
+/// manifold, tips it by `W l theta`. Soft rows are used only where the first is at least
+/// [`TILT_MARGIN`] times the second, `omega^2 <r^2> / g >= 4 l`; otherwise the block keeps its
+/// rigid tilt. The soft sink `g / omega^2` (0.28 mm) is a fixed length, so this only tells
+/// small bodies from large ones: a 1 m cube carrying a column of 20 has 90 times the moment it
+/// needs, a 1 mm die under two more has 0.6 of it, and with soft rows a stack of three 1 mm dice
+/// toppled within 10 steps.
 pub fn manifold_sweep(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
@@ -567,6 +586,10 @@ pub struct Block {
     /// everything it carries in turn (see `shock_order` in the solver module). 0 for a manifold
     /// with no support, whose stiffness is then set by its own effective mass.
     pub load: f32,
+    /// How high the centre of mass of what it carries stands above its centroid, along its
+    /// normal, m (see `carried_loads` in the solver module): the arm through which a tilt of
+    /// the manifold moves that weight sideways. 0 with no support.
+    pub lever: f32,
 }
 
 impl Block {
@@ -656,6 +679,25 @@ fn apply_response(c: &ContactConstraint, bodies: &mut [SolverBody], impulse: f32
     }
 }
 
+/// Whether a manifold's soft tilt holds its load up with [`TILT_MARGIN`] to spare (see
+/// [`manifold_sweep`]): `omega^2 <r^2> / g >= TILT_MARGIN * lever`, `<r^2>` the mean square
+/// distance of its points from their centroid over two (the second moment about one axis of a
+/// rectangle's corners). A manifold that carries no load has its own effective mass's
+/// stiffness, Box2D's soft row, and always stands.
+fn soft_tilt_stands(group: &[ContactConstraint], block: &Block, solve: &ManifoldSolve) -> bool {
+    if block.load <= 0.0 || block.lever <= 0.0 {
+        return true;
+    }
+    let n = group.len() as f32;
+    let centroid = group.iter().map(|c| c.point).sum::<Vec3>() / n;
+    let second = group
+        .iter()
+        .map(|c| (c.point - centroid).length_squared())
+        .sum::<f32>()
+        / (2.0 * n);
+    solve.tilt_stiffness * second >= TILT_MARGIN * block.lever
+}
+
 /// Solves one manifold block to convergence (see [`manifold_sweep`]). Returns whether it
 /// converged exactly, the largest change of its first pass, and whether any velocity changed.
 fn solve_block(
@@ -722,7 +764,7 @@ fn solve_block(
     // its share of the load the block carries (`load / N`), or of its own effective mass where
     // the block carries none: the tilt is soft, and the manifold still sinks by `g / (2 pi f)^2`
     // under its load. See `manifold_sweep`.
-    let pointwise = group[0].friction > 0.0;
+    let pointwise = group[0].friction > 0.0 && soft_tilt_stands(group, block, solve);
     let share = if block.load > 0.0 && count > 0 {
         count as f32 / block.load
     } else {
@@ -924,6 +966,7 @@ mod tests {
             leave_impacts: None,
             max_block_iterations: 64,
             tolerance,
+            tilt_stiffness: f32::INFINITY,
         };
         let blocks = [Block {
             range: 0..contacts.len(),
@@ -931,6 +974,7 @@ mod tests {
             hold: 0.0,
             push: Vec3::ZERO,
             load: 0.0,
+            lever: 0.0,
         }];
         manifold_sweep(
             bodies,

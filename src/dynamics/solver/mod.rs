@@ -603,6 +603,7 @@ fn shock_order(
                 hold: 0.0,
                 push: Vec3::ZERO,
                 load: 0.0,
+                lever: 0.0,
             };
             let upper = block.upper(contacts).unwrap_or(usize::MAX);
             ((la.min(lb), upper), block)
@@ -611,7 +612,7 @@ fn shock_order(
     blocks.sort_by_key(|(key, _)| *key);
     let mut blocks: Vec<Block> = blocks.into_iter().map(|(_, b)| b).collect();
     support_holds(bodies, contacts, &mut blocks, touch);
-    release_frictional_groups(bodies.len(), contacts, &mut blocks);
+    release_frictional_groups(bodies.len(), contacts, &mut blocks, touch);
     carried_loads(bodies, contacts, &mut blocks, touch);
     blocks
 }
@@ -631,10 +632,20 @@ fn shock_order(
 /// stiffness, lets the wall collapse. Friction is what makes this sound: the held support and
 /// the rigid tilt of a frictionless block are there to stop a tilted face pushing the body
 /// above it sideways, and friction resists that push. Frictionless groups (a frictionless
-/// pyramid needs its supports held) are left as they are.
-fn release_frictional_groups(bodies: usize, contacts: &[ContactConstraint], blocks: &mut [Block]) {
+/// pyramid needs its supports held) are left as they are. Only manifolds within `touch` (m)
+/// count as supports: a speculative one (a 1 mm die's contact with the ground through the die
+/// it rests on) is not a second support.
+fn release_frictional_groups(
+    bodies: usize,
+    contacts: &[ContactConstraint],
+    blocks: &mut [Block],
+    touch: f32,
+) {
     let mut supports = vec![(0u32, false); bodies];
     for block in blocks.iter() {
+        if !touches(&contacts[block.range.clone()], touch) {
+            continue;
+        }
         if let Some(upper) = block.upper(contacts) {
             supports[upper].0 += 1;
             supports[upper].1 |= contacts[block.range.start].friction > 0.0;
@@ -987,6 +998,13 @@ fn carried_loads(
         }
     };
     let mut load: Vec<f32> = (0..bodies.len()).map(mass).collect();
+    // The mass-weighted sum of the positions of what each body carries (itself included), for
+    // each block's lever.
+    let mut moment: Vec<Vec3> = bodies
+        .iter()
+        .enumerate()
+        .map(|(i, b)| mass(i) * b.position)
+        .collect();
     // Only touching blocks share the load; a speculative one (not touching) is given the whole
     // load of its upper body, as if it were its only support, and passes none on.
     let touching: Vec<bool> = blocks
@@ -1001,17 +1019,37 @@ fn carried_loads(
     }
     for (block, &touching) in blocks.iter_mut().zip(&touching).rev() {
         if let Some((upper, lower)) = block.pair(contacts) {
+            if load[upper] > 0.0 {
+                let center = moment[upper] / load[upper];
+                block.lever = lever(&contacts[block.range.clone()], upper, center);
+            }
             if !touching {
                 block.load = load[upper];
                 continue;
             }
-            let share = load[upper] / supports[upper] as f32;
+            let fraction = 1.0 / supports[upper] as f32;
+            let share = load[upper] * fraction;
             block.load = share;
             if bodies[lower].motion == Motion::Dynamic {
                 load[lower] += share;
+                let carried = moment[upper] * fraction;
+                moment[lower] += carried;
             }
         }
     }
+}
+
+/// How high the centre of mass `center` of what a manifold carries stands above the
+/// manifold's centroid, along its normal towards the supported body `upper`, m (0 if below).
+fn lever(rows: &[ContactConstraint], upper: usize, center: Vec3) -> f32 {
+    let c = &rows[0];
+    let up = if c.body_b == upper {
+        c.normal
+    } else {
+        -c.normal
+    };
+    let centroid = rows.iter().map(|r| r.point).sum::<Vec3>() / rows.len() as f32;
+    (center - centroid).dot(up).max(0.0)
 }
 
 /// True when, after the impact phase, no contact can take any impulse in the hybrid method's
@@ -1075,11 +1113,10 @@ fn soft_substeps(
     let n = config.substeps.max(1);
     let h = dt / n as f32;
     let inv_h = 1.0 / h;
-    let soft = Softness::new(
-        config.contact_hertz.min(0.25 * inv_h),
-        config.contact_damping_ratio,
-        h,
-    );
+    let hertz = config.contact_hertz.min(0.25 * inv_h);
+    let soft = Softness::new(hertz, config.contact_damping_ratio, h);
+    let omega = 2.0 * std::f32::consts::PI * hertz;
+    let tilt_stiffness = omega * omega / gravity.length();
     let mut settling = Settling::default();
     let mut rows = Vec::new();
     let mut sweep = |bodies: &mut [SolverBody],
@@ -1094,6 +1131,7 @@ fn soft_substeps(
                 leave_impacts,
                 max_block_iterations: config.max_block_iterations,
                 tolerance: config.velocity_tolerance,
+                tilt_stiffness,
             };
             manifold_sweep(bodies, contacts, blocks, &solve, &mut settling, &mut rows)
         }
