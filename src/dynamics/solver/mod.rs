@@ -283,7 +283,6 @@ pub fn step(
         substeps: config.substeps.max(1),
         max_block_iterations: config.max_block_iterations,
         velocity_tolerance: config.velocity_tolerance,
-        touch: config.linear_slop,
     };
     match config.method {
         SolverMethod::Hybrid => {
