@@ -12,9 +12,16 @@ use impact3d::scenes::{self, headless_app};
 /// Half extent of a 1 mm die, m.
 const H: f32 = 0.0005;
 
-/// Largest displacement over 5 s of frictionless 1 mm dice (1 g/cm^3: 1e-6 kg each) resting
-/// on the ground at `spots`, sleeping off, with the given length unit.
-fn dice_drift(method: SolverMethod, unit: Option<f32>, spots: &[Vec3]) -> f32 {
+/// A headless app at 60 Hz, sleeping off, with `method`, the length unit `unit` (the default
+/// without), the ground, and dice of half extent `half` (density 1 g/cm^3) and friction
+/// `friction` at `spots`.
+fn dice_app(
+    method: SolverMethod,
+    unit: Option<f32>,
+    half: f32,
+    spots: &[Vec3],
+    friction: f32,
+) -> (App, Vec<Entity>) {
     let mut app = headless_app(60.0);
     app.insert_resource(SolverConfig::for_method(method));
     app.insert_resource(SleepConfig {
@@ -25,18 +32,26 @@ fn dice_drift(method: SolverMethod, unit: Option<f32>, spots: &[Vec3]) -> f32 {
         app.insert_resource(PhysicsLengthUnit(unit));
     }
     scenes::ground(app.world_mut());
-    let dice: Vec<Entity> = spots
+    let dice = spots
         .iter()
         .map(|&p| {
             app.world_mut()
                 .spawn((
                     RigidBody::Dynamic,
-                    Collider::cuboid(H, H, H),
+                    Collider::cuboid(half, half, half),
+                    Friction(friction),
                     Transform::from_translation(p),
                 ))
                 .id()
         })
         .collect();
+    (app, dice)
+}
+
+/// Largest displacement over 5 s of frictionless 1 mm dice (1 g/cm^3: 1e-6 kg each) resting
+/// on the ground at `spots`, sleeping off, with the given length unit.
+fn dice_drift(method: SolverMethod, unit: Option<f32>, spots: &[Vec3]) -> f32 {
+    let (mut app, dice) = dice_app(method, unit, H, spots, 0.0);
     let mut drift = 0.0f32;
     for _ in 0..300 {
         app.update();
@@ -67,27 +82,7 @@ struct Run {
 /// Dice of half extent `half` (density 1 g/cm^3) at `spots`, bottom first, on the ground,
 /// sleeping off, 60 Hz, 5 s.
 fn run_dice(method: SolverMethod, unit: f32, half: f32, spots: &[Vec3], friction: f32) -> Run {
-    let mut app = headless_app(60.0);
-    app.insert_resource(SolverConfig::for_method(method));
-    app.insert_resource(SleepConfig {
-        enabled: false,
-        ..default()
-    });
-    app.insert_resource(PhysicsLengthUnit(unit));
-    scenes::ground(app.world_mut());
-    let dice: Vec<Entity> = spots
-        .iter()
-        .map(|&p| {
-            app.world_mut()
-                .spawn((
-                    RigidBody::Dynamic,
-                    Collider::cuboid(half, half, half),
-                    Friction(friction),
-                    Transform::from_translation(p),
-                ))
-                .id()
-        })
-        .collect();
+    let (mut app, dice) = dice_app(method, Some(unit), half, spots, friction);
     let (mut sideways, mut top_gap) = (0.0f32, f32::INFINITY);
     let n = dice.len();
     for _ in 0..300 {

@@ -513,16 +513,20 @@ fn awake_default() -> App {
     awake_default_at(60.0)
 }
 
+/// Fixed steps of `app` in `seconds`.
+fn steps_for(app: &App, seconds: f32) -> u32 {
+    let dt = app
+        .world()
+        .resource::<Time<Fixed>>()
+        .timestep()
+        .as_secs_f32();
+    (seconds / dt).round() as u32
+}
+
 /// `(largest displacement of the top cube, its displacement over the second half)`, m, of a
 /// pyramid wall (2D, base `base`, friction `friction`) standing `seconds` under `app`.
 fn wall_motion(mut app: App, base: usize, friction: f32, seconds: f32) -> (f32, f32) {
-    let hz = 1.0
-        / app
-            .world()
-            .resource::<Time<Fixed>>()
-            .timestep()
-            .as_secs_f32();
-    let steps = (seconds * hz).round() as u32;
+    let steps = steps_for(&app, seconds);
     let cubes = scenes::pyramid_with(app.world_mut(), base, false, friction);
     let top = *cubes.last().unwrap();
     let start = position(&app, top);
@@ -574,17 +578,12 @@ fn walls_with_friction_settle_awake() {
 /// The largest sideways displacement, m, of the top of a column of `n` cubes (alternating 1 kg
 /// and `ratio` kg) with friction `friction`, standing `seconds` under `app`.
 fn column_drift(mut app: App, n: usize, friction: f32, ratio: f32, seconds: f32) -> f32 {
-    let hz = 1.0
-        / app
-            .world()
-            .resource::<Time<Fixed>>()
-            .timestep()
-            .as_secs_f32();
+    let steps = steps_for(&app, seconds);
     let cubes = scenes::column(app.world_mut(), n, friction, ratio);
     let top = *cubes.last().unwrap();
     let start = position(&app, top);
     let mut drift = 0f32;
-    for _ in 0..(seconds * hz).round() as u32 {
+    for _ in 0..steps {
         app.update();
         let d = position(&app, top) - start;
         drift = drift.max(Vec2::new(d.x, d.z).length());
