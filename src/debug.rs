@@ -34,6 +34,7 @@ use parry3d::shape::Shape;
 
 use crate::collision::narrow_phase::TOUCH_DISTANCE;
 use crate::collision::{Collider, ContactPairs};
+use crate::dynamics::validation::PhysicsLengthUnit;
 use crate::dynamics::{AngularVelocity, LinearVelocity, Quarantined, RigidBody, Sleeping};
 use crate::messages::Impact;
 
@@ -471,17 +472,22 @@ pub fn draw_aabbs(
     }
 }
 
-/// Draws each contact point closer than [`TOUCH_DISTANCE`] as a cross and its normal as a line
-/// (4 segments a point), at the bodies' current poses.
+/// Draws each contact point closer than [`TOUCH_DISTANCE`] (in the world's
+/// [`PhysicsLengthUnit`], as the physics step counts touching) as a cross and its normal as a
+/// line (4 segments a point), at the bodies' current poses.
 pub fn draw_contacts(
     mut gizmos: Gizmos<PhysicsGizmoGroup>,
     config: Res<PhysicsGizmos>,
     pairs: Option<Res<ContactPairs>>,
+    unit: Option<Res<PhysicsLengthUnit>>,
     transforms: Query<&Transform>,
 ) {
     let Some(pairs) = pairs.filter(|_| config.contacts) else {
         return;
     };
+    // An invalid unit is logged by the physics step, which then uses the last good one; here
+    // the default stands in for it.
+    let touch = TOUCH_DISTANCE * unit.map_or(1.0, |u| u.validated(1.0).0);
     let mut segments = Vec::new();
     for pair in pairs.iter().filter(|p| !p.manifolds.is_empty()) {
         let (Ok(ta), Ok(tb)) = (transforms.get(pair.a), transforms.get(pair.b)) else {
@@ -489,7 +495,7 @@ pub fn draw_contacts(
         };
         let (pa, pb) = (pose_of(ta), pose_of(tb));
         for (_, _, point, normal, dist) in pair.world_points(&pa, &pb) {
-            if dist > TOUCH_DISTANCE {
+            if dist > touch {
                 continue;
             }
             cross_segments(point, config.contact_size, &mut segments);

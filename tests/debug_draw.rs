@@ -235,6 +235,43 @@ fn resting_box_draws_four_contacts() {
     assert_eq!(s.len(), 16);
 }
 
+/// Touching is counted in the world's length unit, as the physics step counts it: with
+/// `PhysicsLengthUnit(1e-3)` (touch distance 5 um, contact margin 20 um), a 1 mm die held 2 um
+/// above the ground (no gravity) draws its four bottom corners, one 10 um above draws none,
+/// though parry reports its corners (within the margin).
+#[test]
+fn contacts_touch_in_the_length_unit() {
+    for (gap, drawn) in [(2e-6, 4), (1e-5, 0)] {
+        let mut app = app(layers(false, true, false, false));
+        app.insert_resource(PhysicsLengthUnit(1e-3))
+            .insert_resource(Gravity(Vec3::ZERO));
+        scenes::ground(app.world_mut());
+        let die = app
+            .world_mut()
+            .spawn((
+                RigidBody::Dynamic,
+                Collider::cuboid(5e-4, 5e-4, 5e-4),
+                Transform::from_xyz(0.0, 5e-4 + gap, 0.0),
+            ))
+            .id();
+        app.update();
+        let pair = app.world().resource::<ContactPairs>();
+        let reported: usize = pair
+            .iter()
+            .filter(|p| p.a == die || p.b == die)
+            .map(|p| p.manifolds.iter().map(|m| m.points.len()).sum::<usize>())
+            .sum();
+        assert!(reported >= 4, "gap {gap}: parry reports {reported} points");
+        let s = segments(&app);
+        let config = PhysicsGizmos::default();
+        assert_eq!(
+            count_color(&s, config.contact_color),
+            drawn * 3,
+            "gap {gap}"
+        );
+    }
+}
+
 /// Head-on impact (case 1, e = 1): m1 = 1 kg at 2 m/s meets m2 = 3 kg at -1 m/s, so
 /// `j = (1 + e) 3 / (1/1 + 1/3) = 4.5 N s`, drawn as an arrow (3 segments) of `0.1 x 4.5` m
 /// from the contact point (x = 0.5) along the line of centres (x), its alpha `1 - age`; it is
