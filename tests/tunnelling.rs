@@ -8,6 +8,7 @@ mod common;
 
 use bevy::prelude::*;
 use common::*;
+use impact3d::collision::ContactPairs;
 use impact3d::prelude::*;
 use impact3d::scenes::{self, headless_app};
 
@@ -104,17 +105,185 @@ fn spinning_box_stops_at_thin_wall() {
     }
 }
 
-/// How deep `ball` (radius `r`) is inside the box `bar` (half extents `half`), m; 0 if apart.
-fn penetration(app: &App, bar: Entity, half: Vec3, ball: Entity, r: f32) -> f32 {
-    let t = app.world().get::<Transform>(bar).unwrap();
-    let local = t.rotation.inverse() * (position(app, ball) - t.translation);
-    let inside = local.abs().cmple(half).all();
-    let outside_distance = (local - local.clamp(-half, half)).length();
-    if inside {
-        // The centre is inside the box: depth is the radius plus the way out.
-        r + (half - local.abs()).min_element()
+/// A kinematic pusher of the turning family: a box of half extents `half`, centred at `centre`
+/// in its body frame (so that it turns about an axis off its centre when `centre` is not zero),
+/// placed at `at`, moving at `linear` and turning at `angular` about its origin.
+struct Pusher {
+    half: Vec3,
+    centre: Vec3,
+    at: Vec3,
+    linear: Vec3,
+    angular: Vec3,
+}
+
+/// What the pusher meets: a 0.1 kg ball of radius `r`, or a 1 kg cube of half extent `h`,
+/// resting on the ground.
+#[derive(Clone, Copy)]
+enum Pushed {
+    Ball(f32),
+    Cube(f32),
+}
+
+/// One step of a push.
+struct Record {
+    /// How deep the pusher and the pushed body overlap, m (0 when apart).
+    depth: f32,
+    /// The pushed body's centre, m, and velocity, m/s.
+    position: Vec3,
+    velocity: Vec3,
+    /// Speed of the pusher's surface at its point nearest the pushed body's centre, m/s.
+    surface: f32,
+    /// The engine counts the pair as touching.
+    touching: bool,
+}
+
+/// Depth of world point `p` inside the box `half` centred at `centre` in the frame `t`.
+fn depth_in_box(t: &Transform, centre: Vec3, half: Vec3, p: Vec3) -> f32 {
+    let local = t.rotation.inverse() * (p - t.translation) - centre;
+    (half - local.abs()).min_element().max(0.0)
+}
+
+/// The corners of the box `half` centred at `centre` in the frame `t`.
+fn corners(t: Transform, centre: Vec3, half: Vec3) -> impl Iterator<Item = Vec3> {
+    (0..8).map(move |i| {
+        let sign = |bit: u32| if i & bit == 0 { -1.0 } else { 1.0 };
+        t.transform_point(centre + Vec3::new(sign(1), sign(2), sign(4)) * half)
+    })
+}
+
+/// Runs `steps` steps of `pusher` meeting `pushed` (at `start`, with friction `friction` on it,
+/// so on its ground and pusher contacts) on the ground, under `method`.
+fn push(
+    method: SolverMethod,
+    pusher: &Pusher,
+    pushed: Pushed,
+    start: Vec3,
+    friction: f32,
+    steps: usize,
+) -> Vec<Record> {
+    let mut app = app_for(method);
+    scenes::ground(app.world_mut());
+    let (half, centre) = (pusher.half, pusher.centre);
+    let collider = if centre == Vec3::ZERO {
+        Collider::cuboid(half.x, half.y, half.z)
     } else {
-        (r - outside_distance).max(0.0)
+        let points: Vec<Vec3> = corners(Transform::IDENTITY, centre, half).collect();
+        Collider::convex_hull(&points).unwrap()
+    };
+    let bar = app
+        .world_mut()
+        .spawn((
+            RigidBody::Kinematic,
+            collider,
+            Transform::from_translation(pusher.at),
+            LinearVelocity(pusher.linear),
+            AngularVelocity(pusher.angular),
+        ))
+        .id();
+    let body = match pushed {
+        Pushed::Ball(r) => app
+            .world_mut()
+            .spawn((scenes::ball(r, 0.1, start, Vec3::ZERO), Friction(friction)))
+            .id(),
+        Pushed::Cube(h) => app
+            .world_mut()
+            .spawn((
+                scenes::cuboid(Vec3::splat(h), 1.0, start),
+                Friction(friction),
+            ))
+            .id(),
+    };
+    (0..steps)
+        .map(|_| {
+            app.update();
+            let world = app.world();
+            let t = *world.get::<Transform>(bar).unwrap();
+            let u = *world.get::<Transform>(body).unwrap();
+            let local = t.rotation.inverse() * (u.translation - t.translation) - centre;
+            let depth = match pushed {
+                Pushed::Ball(r) => {
+                    let outside = (local - local.clamp(-half, half)).length();
+                    if local.abs().cmple(half).all() {
+                        // The centre is inside the box: depth is the radius plus the way out.
+                        r + (half - local.abs()).min_element()
+                    } else {
+                        (r - outside).max(0.0)
+                    }
+                }
+                Pushed::Cube(h) => {
+                    let cube = Vec3::splat(h);
+                    let into_bar = corners(u, Vec3::ZERO, cube)
+                        .map(|p| depth_in_box(&t, centre, half, p))
+                        .fold(0.0, f32::max);
+                    let into_cube = corners(t, centre, half)
+                        .map(|p| depth_in_box(&u, Vec3::ZERO, cube, p))
+                        .fold(0.0, f32::max);
+                    into_bar.max(into_cube)
+                }
+            };
+            let nearest = t.transform_point(centre + local.clamp(-half, half));
+            let surface = (pusher.linear + pusher.angular.cross(nearest - t.translation)).length();
+            Record {
+                depth,
+                position: u.translation,
+                velocity: velocity(&app, body),
+                surface,
+                touching: world
+                    .resource::<ContactPairs>()
+                    .get(bar, body)
+                    .is_some_and(|p| p.touching),
+            }
+        })
+        .collect()
+}
+
+/// Checks a push under `method`: the pusher's surface met the body (`touching` at some step),
+/// the overlap never exceeded `bound` (m), the body left at least half as fast as the surface
+/// that first met it (it was pushed), and while touching it never moved faster than twice the
+/// surface speed at the contact. For a frictionless ball on a line turning at `w` the exact
+/// speed is `w sqrt(2 u^2 - u0^2 + h^2) <= sqrt(2) |w| r` (see
+/// [`turning_kinematic_bar_pushes_ball`]), a box pushed by a face moves at the face's speed, so
+/// twice the surface speed is energy the contact would have created (measured at most 1.27x,
+/// the translating bar's ball; 1.16x at 30 rad/s, 1.02x the cube). Returns the deepest overlap
+/// and the largest speed.
+fn check_push(method: SolverMethod, records: &[Record], bound: f32) -> (f32, f32) {
+    let first = records
+        .iter()
+        .find(|r| r.touching)
+        .unwrap_or_else(|| panic!("{method:?}: the pusher never touched the body"));
+    let deepest = records.iter().map(|r| r.depth).fold(0.0, f32::max);
+    let fastest = records
+        .iter()
+        .map(|r| r.velocity.length())
+        .fold(0.0, f32::max);
+    assert!(
+        deepest < bound,
+        "{method:?}: the pusher sank {deepest} m into the body"
+    );
+    assert!(
+        fastest > 0.5 * first.surface,
+        "{method:?}: not pushed ({fastest} m/s, surface {} m/s)",
+        first.surface
+    );
+    for (step, r) in records.iter().enumerate().filter(|(_, r)| r.touching) {
+        assert!(
+            r.velocity.length() <= 2.0 * r.surface,
+            "{method:?} step {step}: {} m/s against a surface at {} m/s",
+            r.velocity.length(),
+            r.surface
+        );
+    }
+    (deepest, fastest)
+}
+
+/// The bar of issue 9: half extents 1 x 0.05 x 0.1 at y = 0.12, turning about y.
+fn bar(angular_speed: f32) -> Pusher {
+    Pusher {
+        half: Vec3::new(1.0, 0.05, 0.1),
+        centre: Vec3::ZERO,
+        at: Vec3::new(0.0, 0.12, 0.0),
+        linear: Vec3::ZERO,
+        angular: Vec3::new(0.0, angular_speed, 0.0),
     }
 }
 
@@ -122,41 +291,185 @@ fn penetration(app: &App, bar: Entity, half: Vec3, ball: Entity, r: f32) -> f32 
 /// 10 rad/s about y swept through a 0.1 kg ball (r 0.1) resting at (0.6, 0.1, 0.3) without
 /// moving it, sinking 0.13 m into it (a cube in the same place was knocked away): the sphere
 /// contact's rows had no angular terms, so the bar's rotation never reached the contact's
-/// normal velocity. Now the ball is pushed (it leaves at more than 5 m/s: the bar meets it at
-/// 10 rad/s x 0.67 m = 6.7 m/s and it slides out to the tip, 10 m/s; measured 10.1-11.7), and
-/// the bar sinks less than 6 cm into it (measured 3.7-5.5 cm, deepest as the ball slides out
-/// along the bar). That bound is not small: each contact keeps its start-of-step normal for the
-/// whole step while the bar's face turns 0.17 rad, so pushing the ball around the circle lags
-/// by about `w^2 r dt^2 / 2` (1.1 cm per step at r = 0.8 m) until the ball leaves the tip.
+/// normal velocity. Then the ball was pushed but the bar sank 3.7-5.5 cm into it (Hybrid 3.7,
+/// Propagation 5.5, SI and Jacobi 4.2, SoftStep 4.6): each contact kept its start-of-step
+/// normal for the whole step while the bar's face turned 0.17 rad, and the ball, sliding out
+/// along the bar at several m/s, lagged the turned face by that slide times the turn. Contacts
+/// with a turning kinematic body are now carried with it to the end of the step, and the bar
+/// sinks less than 1 mm into the ball (measured 0.0 mm under every method at the end of each
+/// step: a sphere's point stays on the carried normal through its centre, so the rows keep it
+/// out of the bar's end-of-step face exactly; 1 mm is 3.5x the 0.28 mm static soft sink).
+///
+/// Worked-out answer: all contacts are frictionless and the bar turns at a constant `w` about a
+/// fixed axis, so the ball is a bead on a line turning at `w`, offset `h = 0.2` m from the axis
+/// (the bar's half depth plus the radius). In the bar's frame, along the bar, `u'' = w^2 u`,
+/// whose first integral is the Jacobi integral `J = m v^2 / 2 - w . (r x m v)` (the ground's
+/// forces are vertical, so they have no moment about the axis): constant while the ball
+/// slides. The first touch is inelastic (e = 0) and leaves `J = -m w^2 u0^2 / 2` for a touch
+/// at `u0`; the discrete steps lose a little more at each step (the ball leaves a step at the
+/// face's normal speed where it started, `w u`, not where it ends, `w (u + u' dt)`: about
+/// `m (w u' dt)^2 / 2`, 0.005-0.07 J a step here). So `J` must never rise (energy created in
+/// the bar's frame; 1e-3 J is f32 rounding on 2 J with room) and may fall by at most 25% over
+/// the push (measured 16-18% from the step after the touch until the ball leaves, under every method).
+/// The ball leaves the face at the tip, `u = 1`: from the touch at `u0 = 0.66` (measured) its
+/// speed there is `w sqrt((u' - w h)^2 / w^2 + u^2)` with `u' = w sqrt(u^2 - u0^2 + h^2)`,
+/// 11.5 m/s; measured 10.9 (SI, Jacobi) to 11.4 (the others), so within 10%.
 #[test]
 fn turning_kinematic_bar_pushes_ball() {
+    let w = 10.0;
+    let (u0, h, m) = (0.66f32, 0.2f32, 0.1f32);
+    let u_dot = w * (1.0 - u0 * u0 + h * h).sqrt();
+    let exit = ((u_dot - w * h).powi(2) + w * w).sqrt();
+    assert!((exit - 11.5).abs() < 0.05, "{exit}");
     for method in SolverMethod::ALL {
-        let mut app = app_for(method);
-        scenes::ground(app.world_mut());
-        let half = Vec3::new(1.0, 0.05, 0.1);
-        let bar = app
-            .world_mut()
-            .spawn((
-                RigidBody::Kinematic,
-                Collider::cuboid(half.x, half.y, half.z),
-                Transform::from_xyz(0.0, 0.12, 0.0),
-                AngularVelocity(Vec3::new(0.0, 10.0, 0.0)),
-            ))
-            .id();
-        let ball = app
-            .world_mut()
-            .spawn(scenes::ball(0.1, 0.1, Vec3::new(0.6, 0.1, 0.3), Vec3::ZERO))
-            .id();
-        let (mut deepest, mut fastest) = (0.0f32, 0.0f32);
-        for _ in 0..30 {
-            app.update();
-            deepest = deepest.max(penetration(&app, bar, half, ball, 0.1));
-            fastest = fastest.max(velocity(&app, ball).length());
-        }
-        assert!(fastest > 5.0, "{method:?}: ball not pushed ({fastest} m/s)");
-        assert!(
-            deepest < 0.06,
-            "{method:?}: bar sank {deepest} m into the ball"
+        let records = push(
+            method,
+            &bar(w),
+            Pushed::Ball(0.1),
+            Vec3::new(0.6, 0.1, 0.3),
+            0.0,
+            30,
         );
+        let (_, fastest) = check_push(method, &records, 1e-3);
+        assert!(
+            (fastest / exit - 1.0).abs() < 0.1,
+            "{method:?}: left at {fastest} m/s, expected {exit}"
+        );
+        // The Jacobi integral about the bar's axis (through the origin).
+        let jacobi = |r: &Record| {
+            let omega = Vec3::new(0.0, w, 0.0);
+            0.5 * m * r.velocity.length_squared() - omega.dot(r.position.cross(m * r.velocity))
+        };
+        let first = records.iter().position(|r| r.touching).unwrap();
+        let sliding: Vec<f32> = records[first + 1..]
+            .iter()
+            .take_while(|r| r.touching)
+            .map(jacobi)
+            .collect();
+        assert!(sliding.len() >= 3, "{method:?}: {sliding:?}");
+        for pair in sliding.windows(2) {
+            assert!(pair[1] <= pair[0] + 1e-3, "{method:?}: J rose, {sliding:?}");
+        }
+        let (j0, j1) = (sliding[0], *sliding.last().unwrap());
+        assert!(j1 >= 1.25 * j0, "{method:?}: J fell from {j0} to {j1}");
     }
+}
+
+/// The same bar turning three times as fast, 30 rad/s (0.5 rad a step, so the first touch is
+/// built at its time of impact): it sank 9.8-13 cm into the ball before (SI, Jacobi 9.8,
+/// the others 13.0), the ball leaving at 21-29 m/s. Now: the bar sinks less than 3 mm (measured
+/// 2.1 mm under the soft step, 0.0 under the others): the carried contact is exact at the end
+/// of the step and what is left is the soft contact's give under the push, whose acceleration
+/// reaches `w^2 R` = 900 m/s^2 at the tip, `a / (2 pi 30 Hz)^2` = 2.5 mm.
+#[test]
+fn fast_turning_kinematic_bar_pushes_ball() {
+    for method in SolverMethod::ALL {
+        let records = push(
+            method,
+            &bar(30.0),
+            Pushed::Ball(0.1),
+            Vec3::new(0.6, 0.1, 0.3),
+            0.0,
+            30,
+        );
+        check_push(method, &records, 3e-3);
+    }
+}
+
+/// A kinematic bar turning at 10 rad/s about an axis 0.8 m from its centre (a 1.2 m bar from
+/// x = 0.2 to 1.4 about the origin) meets a ball at (0.9, 0.1, -0.35). It sank 4.1-5.4 cm into
+/// it before (SI, Jacobi, Hybrid 4.1, Propagation 5.1, SoftStep 5.4); now less than 1 mm
+/// (measured 0.03 mm under the soft step, 0.0 under the others), as the centred bar.
+#[test]
+fn kinematic_bar_turning_off_centre_pushes_ball() {
+    let pusher = Pusher {
+        half: Vec3::new(0.6, 0.05, 0.1),
+        centre: Vec3::new(0.8, 0.0, 0.0),
+        ..bar(10.0)
+    };
+    for method in SolverMethod::ALL {
+        let records = push(
+            method,
+            &pusher,
+            Pushed::Ball(0.1),
+            Vec3::new(0.9, 0.1, -0.35),
+            0.0,
+            60,
+        );
+        check_push(method, &records, 1e-3);
+    }
+}
+
+/// A kinematic bar that translates at 2 m/s along x and turns at 6 rad/s, from x = -1, meets a
+/// ball at (0, 0.1, 0.6). It sank 1.7-2.4 cm into it before (SI, Jacobi 1.7, Hybrid 1.8,
+/// SoftStep 1.9, Propagation 2.4); now less than 1 mm (measured 0.27 mm under propagation,
+/// 0.0 under the others). Under the soft step it first sank 9.9 cm once the contact was carried:
+/// the ball's straight path grazes the arc of the face mid-step, and the continuous-collision
+/// rewind put it back at its start (see `stop_at_first_impact`).
+#[test]
+fn translating_and_turning_kinematic_bar_pushes_ball() {
+    let pusher = Pusher {
+        at: Vec3::new(-1.0, 0.12, 0.0),
+        linear: Vec3::new(2.0, 0.0, 0.0),
+        ..bar(6.0)
+    };
+    for method in SolverMethod::ALL {
+        let records = push(
+            method,
+            &pusher,
+            Pushed::Ball(0.1),
+            Vec3::new(0.0, 0.1, 0.6),
+            0.0,
+            60,
+        );
+        check_push(method, &records, 1e-3);
+    }
+}
+
+/// A kinematic box (half extents 0.6 x 0.15 x 0.15, centre at y = 0.2) spinning at 4 rad/s
+/// about y meets a 1 kg cube (0.4 m) resting on the ground at (0.45, 0.2, 0.5), friction 0.5.
+/// Its edge pushes the cube's face and slides along it. Measured depth: Hybrid 2.1 mm (2.1
+/// before), SI 0.0 (0.0), SoftStep 0.0 (0.0), Jacobi 1.8 (10.7: the continuous-collision rewind
+/// put the cube back at its start on a mid-step graze); bound 5 mm. The contact's normal here
+/// is the cube's face, which turns with the cube, not with the box, so it is not carried: what
+/// is left is the edge's slide along the face times the cube's own turn in the step (about
+/// 3 cm x 0.005-0.08 rad).
+#[test]
+fn spinning_kinematic_box_pushes_cube() {
+    for method in SolverMethod::ALL {
+        if method == SolverMethod::Propagation {
+            continue;
+        }
+        spinning_box_push(method);
+    }
+}
+
+/// Propagation under [`spinning_kinematic_box_pushes_cube`]: the box sinks 10.6 mm into the
+/// cube (15.8 before). Propagation's impacts correct no penetration, so the error of the step
+/// above accumulates: the cube spins at 5 rad/s from the box's friction (0.3 rad/s under SI),
+/// and the edge sliding 3 cm a step along its face gains about 2 mm a step over 6 steps.
+#[test]
+#[ignore = "Propagation: 10.6 mm; the pushed cube's own turn (5 rad/s) is not carried and \
+            propagation corrects no penetration"]
+fn spinning_kinematic_box_pushes_cube_propagation() {
+    spinning_box_push(SolverMethod::Propagation);
+}
+
+fn spinning_box_push(method: SolverMethod) {
+    let pusher = Pusher {
+        half: Vec3::new(0.6, 0.15, 0.15),
+        centre: Vec3::ZERO,
+        at: Vec3::new(0.0, 0.2, 0.0),
+        linear: Vec3::ZERO,
+        angular: Vec3::new(0.0, 4.0, 0.0),
+    };
+    let records = push(
+        method,
+        &pusher,
+        Pushed::Cube(0.2),
+        Vec3::new(0.45, 0.2, 0.5),
+        0.5,
+        90,
+    );
+    check_push(method, &records, 5e-3);
 }

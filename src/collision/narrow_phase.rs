@@ -98,6 +98,26 @@ impl ContactPair {
                 })
             })
     }
+
+    /// The two surface points of point `k` of manifold `m` in the world, `(on a, on b)`, and
+    /// whether each lies on a face of its shape (rather than an edge or a vertex): the normal of
+    /// a point on a face of one shape is that face's normal, so it turns with that shape.
+    pub fn surface_points(
+        &self,
+        m: usize,
+        k: usize,
+        pose_a: &Pose,
+        pose_b: &Pose,
+    ) -> ((Vec3, bool), (Vec3, bool)) {
+        let manifold = &self.manifolds[m];
+        let frame_a = manifold.subshape_pos1.map_or(*pose_a, |sub| pose_a * sub);
+        let frame_b = manifold.subshape_pos2.map_or(*pose_b, |sub| pose_b * sub);
+        let p = &manifold.points[k];
+        (
+            (frame_a.transform_point(p.local_p1), p.fid1.is_face()),
+            (frame_b.transform_point(p.local_p2), p.fid2.is_face()),
+        )
+    }
 }
 
 /// Points closer than this count as touching for collision start and end, m (times the
