@@ -758,8 +758,6 @@ fn solve_block(
         }
         rows.push(Some(row));
     }
-    // c = K_mean / a2, K_mean = 1^T A 1 / N^2 (the points share the normal, so the linear part
-    // of 1^T A 1 is N^2 (1/m_A + 1/m_B)).
     // With friction, each penetrating point is its own soft row, Box2D's, with the stiffness of
     // its share of the load the block carries (`load / N`), or of its own effective mass where
     // the block carries none: the tilt is soft, and the manifold still sinks by `g / (2 pi f)^2`
@@ -773,6 +771,8 @@ fn solve_block(
     let softness = solve
         .soft
         .map_or(0.0, |soft| soft.impulse_scale / soft.mass_scale);
+    // c = K_mean / a2, K_mean = 1^T A 1 / N^2 (the points share the normal, so the linear part
+    // of 1^T A 1 is N^2 (1/m_A + 1/m_B)).
     let coupling = match (solve.soft, count) {
         (Some(soft), n) if n > 0 => {
             let n = n as f32;
@@ -886,6 +886,54 @@ pub fn apply_restitution(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A friction manifold's soft tilt holds its load up where `omega^2 <r^2> / g` is at least
+    /// four times the lever (worked by hand below), whatever its size otherwise.
+    #[test]
+    fn soft_tilt_stands_by_size_against_lever() {
+        // A face of four corners at +-h: <r^2> = h^2 (2 h^2 from the centroid, over two).
+        let face = |h: f32| -> Vec<ContactConstraint> {
+            [(-h, -h), (h, -h), (h, h), (-h, h)]
+                .iter()
+                .map(|&(x, z)| {
+                    ContactConstraint::new(0, 1, Vec3::new(x, 0.0, z), Vec3::Y, 0.0, 0.0, 0.5)
+                })
+                .collect()
+        };
+        let block = |lever: f32| Block {
+            range: 0..4,
+            support: Support::A,
+            hold: 1.0,
+            push: Vec3::Y,
+            load: 1.0,
+            lever,
+        };
+        // 30 Hz over 9.81 m/s^2: omega^2 / g = 3621.9 1/m.
+        let omega = 2.0 * std::f32::consts::PI * 30.0;
+        let solve = ManifoldSolve {
+            soft: None,
+            inv_h: 240.0,
+            max_push_out: 3.0,
+            leave_impacts: None,
+            max_block_iterations: 64,
+            tolerance: 1e-4,
+            tilt_stiffness: omega * omega / 9.81,
+        };
+        // A 1 m cube's face under a column of 20 (centre of mass 10 m up): 3621.9 x 0.25 = 905
+        // against 4 x 10 = 40.
+        assert!(soft_tilt_stands(&face(0.5), &block(10.0), &solve));
+        // A 1 mm die's face under two more (lever 1.5 mm): 3621.9 x 2.5e-7 = 9.1e-4 against
+        // 4 x 1.5e-3 = 6e-3.
+        assert!(!soft_tilt_stands(&face(5e-4), &block(1.5e-3), &solve));
+        // The bound: h^2 omega^2 / g = 4 l, for h = 0.5, at l = 226.4 m.
+        let l = 0.25 * omega * omega / 9.81 / TILT_MARGIN;
+        assert!(soft_tilt_stands(&face(0.5), &block(l * 0.999), &solve));
+        assert!(!soft_tilt_stands(&face(0.5), &block(l * 1.001), &solve));
+        // No load: Box2D's own-mass row, always.
+        let mut free = block(1e3);
+        free.load = 0.0;
+        assert!(soft_tilt_stands(&face(5e-4), &free, &solve));
+    }
 
     /// The soft coefficients of Box2D's defaults (30 Hz, zeta 10, h = 1/240 s) match a hand
     /// evaluation of the formulas: omega = 188.496, a1 = 20.785, a2 = 16.324.
