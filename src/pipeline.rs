@@ -1107,19 +1107,7 @@ impl Turning {
     /// The turning kinematic body of the pair `(ia, ib)` (not a sphere, whose contact normal
     /// does not turn with it) and its motion, if the other body is dynamic.
     fn of(state: &PhysicsState, ia: usize, ib: usize) -> Option<Turning> {
-        let turns = |k: usize, d: usize| {
-            state.bodies[k].motion == Motion::Kinematic
-                && state.bodies[k].angular_velocity != Vec3::ZERO
-                && state.bodies[d].motion == Motion::Dynamic
-                && state.shapes[k].as_ball().is_none()
-        };
-        let (k, d, sign) = if turns(ia, ib) {
-            (ia, ib, 1.0)
-        } else if turns(ib, ia) {
-            (ib, ia, -1.0)
-        } else {
-            return None;
-        };
+        let (k, d, sign) = Turning::sides(state, ia, ib)?;
         let motion = StepMotion {
             pose: state.poses[k],
             local_center: state.local_com[k],
@@ -1136,6 +1124,24 @@ impl Turning {
             end: motion.pose_at(state.dt),
             ball,
         })
+    }
+
+    /// `(kinematic body, dynamic body, sign)` of the pair `(ia, ib)` if it has a turning
+    /// kinematic body (see [`Turning::of`]).
+    fn sides(state: &PhysicsState, ia: usize, ib: usize) -> Option<(usize, usize, f32)> {
+        let turns = |k: usize, d: usize| {
+            state.bodies[k].motion == Motion::Kinematic
+                && state.bodies[k].angular_velocity != Vec3::ZERO
+                && state.bodies[d].motion == Motion::Dynamic
+                && state.shapes[k].as_ball().is_none()
+        };
+        if turns(ia, ib) {
+            Some((ia, ib, 1.0))
+        } else if turns(ib, ia) {
+            Some((ib, ia, -1.0))
+        } else {
+            None
+        }
     }
 
     /// The face point of a contact whose surface points are `points` (`(on a, on b)`, each with
@@ -1208,10 +1214,11 @@ impl Turning {
         };
         let end_separation =
             self.sign * (on_dynamic - self.at_end(face.on_kinematic, at)).dot(normal);
+        // How far the kinematic body's point at `on_dynamic` moves along the normal in the step.
+        let travel = (self.at_end(on_dynamic, start) - on_dynamic).dot(normal);
         c.normal = normal;
         c.point = on_dynamic;
-        c.separation =
-            end_separation + self.sign * (self.at_end(on_dynamic, start) - on_dynamic).dot(normal);
+        c.separation = end_separation + self.sign * travel;
         let body = if self.sign > 0.0 {
             &bodies[c.body_a]
         } else {
@@ -1220,8 +1227,7 @@ impl Turning {
         let first_order = (body.linear_velocity
             + body.angular_velocity.cross(on_dynamic - body.position))
         .dot(normal);
-        let mean = (self.at_end(on_dynamic, start) - on_dynamic).dot(normal) / dt;
-        c.drive = self.sign * (first_order - mean);
+        c.drive = self.sign * (first_order - travel / dt);
     }
 }
 
@@ -1326,7 +1332,7 @@ fn stop_at_first_impact(state: &mut PhysicsState) {
         // back where it started while the bar moved on, and the bar sank 9.9 cm into it under
         // the soft step. Such a pair is swept by the fast body's centre, as a pair touching at
         // the start.
-        let carried = Turning::of(state, ia, ib).is_some();
+        let carried = Turning::sides(state, ia, ib).is_some();
         let t = match hit(&ma, sa, &mb, sb) {
             Some(t) if t > 0.0 && !carried => Some(t),
             Some(_) => {

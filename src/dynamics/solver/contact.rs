@@ -29,12 +29,13 @@ pub struct ContactConstraint {
     /// Accumulated friction impulse along the two tangents, N s.
     pub tangent_impulse: [f32; 2],
     /// Normal velocity, m/s, added to the rows' first-order `v_rel . n` for a contact on a face
-    /// of a turning kinematic body, carried to its end-of-step pose: the mean normal velocity of the kinematic body's contact point
-    /// over the step, `(x(dt) - x(0)) . n / dt`, less the `(v + w x r) . n` of its start anchor
-    /// (with the sign of that body's side). The rows then move the point where the kinematic
-    /// body's prescribed motion puts it at the end of the step, not along its start tangent
-    /// (which falls short by `(cos(theta/2) - cos theta)`, 3 theta^2 / 8 of the travel, for a
-    /// turn of theta in the step). Zero for every other contact.
+    /// of a turning kinematic body, carried to its end-of-step pose: the mean normal velocity of
+    /// the kinematic body's contact point over the step, `(x(dt) - x(0)) . n / dt`, less the
+    /// `(v + w x r) . n` of its start anchor (with the sign of that body's side). The rows then
+    /// move the point where the kinematic body's prescribed motion puts it at the end of the
+    /// step, not along its start tangent (which falls short by `(cos(theta/2) - cos theta)`,
+    /// 3 theta^2 / 8 of the travel, for a turn of theta in the step). Zero for every other
+    /// contact.
     pub drive: f32,
 
     // Filled by `prepare_contacts`.

@@ -590,6 +590,12 @@ pub struct Block {
     /// normal, m (see `carried_loads` in the solver module): the arm through which a tilt of
     /// the manifold moves that weight sideways. 0 with no support.
     pub lever: f32,
+    /// The mean square distance of its points from their centroid over two, m^2 (the second
+    /// moment about one axis of a rectangle's corners), set with [`Block::lever`].
+    pub spread: f32,
+    /// Some point of it can push and is within the touch distance at the start of the step:
+    /// only touching manifolds make levels, support, share loads (see `shock_order`).
+    pub touching: bool,
 }
 
 impl Block {
@@ -680,22 +686,14 @@ fn apply_response(c: &ContactConstraint, bodies: &mut [SolverBody], impulse: f32
 }
 
 /// Whether a manifold's soft tilt holds its load up with [`TILT_MARGIN`] to spare (see
-/// [`manifold_sweep`]): `omega^2 <r^2> / g >= TILT_MARGIN * lever`, `<r^2>` the mean square
-/// distance of its points from their centroid over two (the second moment about one axis of a
-/// rectangle's corners). A manifold that carries no load has its own effective mass's
-/// stiffness, Box2D's soft row, and always stands.
-fn soft_tilt_stands(group: &[ContactConstraint], block: &Block, solve: &ManifoldSolve) -> bool {
+/// [`manifold_sweep`]): `omega^2 <r^2> / g >= TILT_MARGIN * lever`, `<r^2>` its
+/// [`Block::spread`]. A manifold that carries no load has its own effective mass's stiffness,
+/// Box2D's soft row, and always stands.
+fn soft_tilt_stands(block: &Block, solve: &ManifoldSolve) -> bool {
     if block.load <= 0.0 || block.lever <= 0.0 {
         return true;
     }
-    let n = group.len() as f32;
-    let centroid = group.iter().map(|c| c.point).sum::<Vec3>() / n;
-    let second = group
-        .iter()
-        .map(|c| (c.point - centroid).length_squared())
-        .sum::<f32>()
-        / (2.0 * n);
-    solve.tilt_stiffness * second >= TILT_MARGIN * block.lever
+    solve.tilt_stiffness * block.spread >= TILT_MARGIN * block.lever
 }
 
 /// Solves one manifold block to convergence (see [`manifold_sweep`]). Returns whether it
@@ -762,7 +760,7 @@ fn solve_block(
     // its share of the load the block carries (`load / N`), or of its own effective mass where
     // the block carries none: the tilt is soft, and the manifold still sinks by `g / (2 pi f)^2`
     // under its load. See `manifold_sweep`.
-    let pointwise = group[0].friction > 0.0 && soft_tilt_stands(group, block, solve);
+    let pointwise = group[0].friction > 0.0 && soft_tilt_stands(block, solve);
     let share = if block.load > 0.0 && count > 0 {
         count as f32 / block.load
     } else {
@@ -900,13 +898,25 @@ mod tests {
                 })
                 .collect()
         };
-        let block = |lever: f32| Block {
-            range: 0..4,
-            support: Support::A,
-            hold: 1.0,
-            push: Vec3::Y,
-            load: 1.0,
-            lever,
+        // The block carrying a load whose centre of mass stands `l` above the face's centroid,
+        // with its lever and spread as the solver derives them (`carried_loads`).
+        let block = |h: f32, l: f32| {
+            let (lever, spread) = super::super::lever(&face(h), 1, Vec3::new(0.0, l, 0.0));
+            assert!((lever - l).abs() <= 1e-6 * l, "lever {lever} for {l}");
+            assert!(
+                (spread - h * h).abs() <= 1e-6 * h * h,
+                "spread {spread} for {h}"
+            );
+            Block {
+                range: 0..4,
+                support: Support::A,
+                hold: 1.0,
+                push: Vec3::Y,
+                load: 1.0,
+                lever,
+                spread,
+                touching: true,
+            }
         };
         // 30 Hz over 9.81 m/s^2: omega^2 / g = 3621.9 1/m.
         let omega = 2.0 * std::f32::consts::PI * 30.0;
@@ -921,18 +931,18 @@ mod tests {
         };
         // A 1 m cube's face under a column of 20 (centre of mass 10 m up): 3621.9 x 0.25 = 905
         // against 4 x 10 = 40.
-        assert!(soft_tilt_stands(&face(0.5), &block(10.0), &solve));
+        assert!(soft_tilt_stands(&block(0.5, 10.0), &solve));
         // A 1 mm die's face under two more (lever 1.5 mm): 3621.9 x 2.5e-7 = 9.1e-4 against
         // 4 x 1.5e-3 = 6e-3.
-        assert!(!soft_tilt_stands(&face(5e-4), &block(1.5e-3), &solve));
+        assert!(!soft_tilt_stands(&block(5e-4, 1.5e-3), &solve));
         // The bound: h^2 omega^2 / g = 4 l, for h = 0.5, at l = 226.4 m.
         let l = 0.25 * omega * omega / 9.81 / TILT_MARGIN;
-        assert!(soft_tilt_stands(&face(0.5), &block(l * 0.999), &solve));
-        assert!(!soft_tilt_stands(&face(0.5), &block(l * 1.001), &solve));
+        assert!(soft_tilt_stands(&block(0.5, l * 0.999), &solve));
+        assert!(!soft_tilt_stands(&block(0.5, l * 1.001), &solve));
         // No load: Box2D's own-mass row, always.
-        let mut free = block(1e3);
+        let mut free = block(5e-4, 1e3);
         free.load = 0.0;
-        assert!(soft_tilt_stands(&face(5e-4), &free, &solve));
+        assert!(soft_tilt_stands(&free, &solve));
     }
 
     /// The soft coefficients of Box2D's defaults (30 Hz, zeta 10, h = 1/240 s) match a hand
@@ -1023,6 +1033,8 @@ mod tests {
             push: Vec3::ZERO,
             load: 0.0,
             lever: 0.0,
+            spread: 0.0,
+            touching: true,
         }];
         manifold_sweep(
             bodies,

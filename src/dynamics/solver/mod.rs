@@ -566,10 +566,15 @@ fn shock_order(
     // support. (With it, a die resting on another had the level of the lower die: at 1 mm the
     // step's fall `g dt^2`, 2.7 mm at 60 Hz, reaches the ground through the lower die, and the
     // pair of dice was then solved two-body, with no support held and no load carried.)
+    let touching: Vec<bool> = ranges
+        .iter()
+        .map(|r| touches(&contacts[r.clone()], touch))
+        .collect();
     let pairs: Vec<(usize, usize)> = ranges
         .iter()
-        .filter(|r| touches(&contacts[(*r).clone()], touch))
-        .map(|r| (contacts[r.start].body_a, contacts[r.start].body_b))
+        .zip(&touching)
+        .filter(|(_, t)| **t)
+        .map(|(r, _)| (contacts[r.start].body_a, contacts[r.start].body_b))
         .collect();
     loop {
         let mut lowered = false;
@@ -588,7 +593,8 @@ fn shock_order(
     }
     let mut blocks: Vec<((u32, usize), Block)> = ranges
         .into_iter()
-        .map(|range| {
+        .zip(touching)
+        .map(|(range, touching)| {
             let c = &contacts[range.start];
             let (la, lb) = (level[c.body_a], level[c.body_b]);
             let support = match la.cmp(&lb) {
@@ -603,6 +609,8 @@ fn shock_order(
                 push: Vec3::ZERO,
                 load: 0.0,
                 lever: 0.0,
+                spread: 0.0,
+                touching,
             };
             let upper = block.upper(contacts).unwrap_or(usize::MAX);
             ((la.min(lb), upper), block)
@@ -611,8 +619,8 @@ fn shock_order(
     blocks.sort_by_key(|(key, _)| *key);
     let mut blocks: Vec<Block> = blocks.into_iter().map(|(_, b)| b).collect();
     support_holds(bodies, contacts, &mut blocks, touch);
-    release_frictional_groups(bodies.len(), contacts, &mut blocks, touch);
-    carried_loads(bodies, contacts, &mut blocks, touch);
+    release_frictional_groups(bodies.len(), contacts, &mut blocks);
+    carried_loads(bodies, contacts, &mut blocks);
     blocks
 }
 
@@ -631,20 +639,12 @@ fn shock_order(
 /// stiffness, lets the wall collapse. Friction is what makes this sound: the held support and
 /// the rigid tilt of a frictionless block are there to stop a tilted face pushing the body
 /// above it sideways, and friction resists that push. Frictionless groups (a frictionless
-/// pyramid needs its supports held) are left as they are. Only manifolds within `touch` (m)
-/// count as supports: a speculative one (a 1 mm die's contact with the ground through the die
-/// it rests on) is not a second support.
-fn release_frictional_groups(
-    bodies: usize,
-    contacts: &[ContactConstraint],
-    blocks: &mut [Block],
-    touch: f32,
-) {
+/// pyramid needs its supports held) are left as they are. Only touching manifolds
+/// ([`Block::touching`]) count as supports: a speculative one (a 1 mm die's contact with the
+/// ground through the die it rests on) is not a second support.
+fn release_frictional_groups(bodies: usize, contacts: &[ContactConstraint], blocks: &mut [Block]) {
     let mut supports = vec![(0u32, false); bodies];
-    for block in blocks.iter() {
-        if !touches(&contacts[block.range.clone()], touch) {
-            continue;
-        }
+    for block in blocks.iter().filter(|b| b.touching) {
         if let Some(upper) = block.upper(contacts) {
             supports[upper].0 += 1;
             supports[upper].1 |= contacts[block.range.start].friction > 0.0;
@@ -732,8 +732,9 @@ const MAX_SUPPORTS: usize = 8;
 ///   points (projected along the mean support normal); a load outside it tips S, so then the
 ///   hold is 0.
 ///
-/// Only touching points (separation at most `touch`, the length-scaled linear slop) support. Under-estimating the hold is safe: a hold of 0 is the plain two-body solve, which
-/// never adds energy; over-estimating it is what added energy.
+/// Only touching points (separation at most `touch`, the length-scaled linear slop) support.
+/// Under-estimating the hold is safe: a hold of 0 is the plain two-body solve, which never adds
+/// energy; over-estimating it is what added energy.
 fn support_holds(
     bodies: &[SolverBody],
     contacts: &[ContactConstraint],
@@ -982,12 +983,7 @@ fn cone_projection(n: Vec3, generators: &[Vec3]) -> (Vec3, u32) {
 /// on it: 5.5 mm for the 20-cube column, 0.28 mm under the 1000:1 pair. Only the
 /// regularisation changes, and with the support held fixed the stiffer block still converges
 /// in one pass: its only free body is the supported one.
-fn carried_loads(
-    bodies: &[SolverBody],
-    contacts: &[ContactConstraint],
-    blocks: &mut [Block],
-    touch: f32,
-) {
+fn carried_loads(bodies: &[SolverBody], contacts: &[ContactConstraint], blocks: &mut [Block]) {
     let mass = |i: usize| {
         let b = &bodies[i];
         if b.motion == Motion::Dynamic && b.inverse_mass > 0.0 {
@@ -1006,23 +1002,19 @@ fn carried_loads(
         .collect();
     // Only touching blocks share the load; a speculative one (not touching) is given the whole
     // load of its upper body, as if it were its only support, and passes none on.
-    let touching: Vec<bool> = blocks
-        .iter()
-        .map(|b| touches(&contacts[b.range.clone()], touch))
-        .collect();
     let mut supports = vec![0u32; bodies.len()];
-    for (block, _) in blocks.iter().zip(&touching).filter(|(_, t)| **t) {
+    for block in blocks.iter().filter(|b| b.touching) {
         if let Some(upper) = block.upper(contacts) {
             supports[upper] += 1;
         }
     }
-    for (block, &touching) in blocks.iter_mut().zip(&touching).rev() {
+    for block in blocks.iter_mut().rev() {
         if let Some((upper, lower)) = block.pair(contacts) {
             if load[upper] > 0.0 {
                 let center = moment[upper] / load[upper];
-                block.lever = lever(&contacts[block.range.clone()], upper, center);
+                (block.lever, block.spread) = lever(&contacts[block.range.clone()], upper, center);
             }
-            if !touching {
+            if !block.touching {
                 block.load = load[upper];
                 continue;
             }
@@ -1038,17 +1030,25 @@ fn carried_loads(
     }
 }
 
-/// How high the centre of mass `center` of what a manifold carries stands above the
-/// manifold's centroid, along its normal towards the supported body `upper`, m (0 if below).
-fn lever(rows: &[ContactConstraint], upper: usize, center: Vec3) -> f32 {
+/// A manifold's [`Block::lever`] and [`Block::spread`]: how high the centre of mass `center`
+/// of what it carries stands above the manifold's centroid, along its normal towards the
+/// supported body `upper`, m (0 if below); and the mean square distance of its points from
+/// that centroid over two, m^2 (the second moment about one axis of a rectangle's corners).
+fn lever(rows: &[ContactConstraint], upper: usize, center: Vec3) -> (f32, f32) {
     let c = &rows[0];
     let up = if c.body_b == upper {
         c.normal
     } else {
         -c.normal
     };
-    let centroid = rows.iter().map(|r| r.point).sum::<Vec3>() / rows.len() as f32;
-    (center - centroid).dot(up).max(0.0)
+    let n = rows.len() as f32;
+    let centroid = rows.iter().map(|r| r.point).sum::<Vec3>() / n;
+    let spread = rows
+        .iter()
+        .map(|r| (r.point - centroid).length_squared())
+        .sum::<f32>()
+        / (2.0 * n);
+    ((center - centroid).dot(up).max(0.0), spread)
 }
 
 /// True when, after the impact phase, no contact can take any impulse in the hybrid method's

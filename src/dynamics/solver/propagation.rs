@@ -238,17 +238,11 @@ pub fn propagate(
                     }
                 }
             }
-            for &g in &event {
-                // A block stopped by its iteration bound may still approach: check it again.
-                checked[g] = if approaches(g, &stamp, bodies, contacts, &met) {
-                    resolutions - 1
-                } else {
-                    resolutions
-                };
-            }
-            // Groups of the event's bodies that approach now take their turn in this sweep, in
-            // time order with the rest (those resolved already, in the next sweep); those that
-            // do not approach are checked as of now.
+            // Groups of the event's bodies (the event's own among them) that approach now take
+            // their turn in this sweep, in time order with the rest, or, resolved already (a
+            // block stopped by its iteration bound may still approach), in the next sweep, their
+            // bodies' stamps being newer than their checks; those that do not approach are
+            // checked as of now.
             for &g in &event {
                 let (a, b) = pairs[g].expect("an event's groups have bodies");
                 for body in [a, b] {
