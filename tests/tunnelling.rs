@@ -151,6 +151,15 @@ fn corners(t: Transform, centre: Vec3, half: Vec3) -> impl Iterator<Item = Vec3>
     })
 }
 
+/// Under every method, `pusher` meets a frictionless ball of radius 0.1 m at `start` for
+/// `steps` steps and sinks less than `bound` (m) into it (see [`check_push`]).
+fn pushes_ball_under_every_method(pusher: &Pusher, start: Vec3, steps: usize, bound: f32) {
+    for method in SolverMethod::ALL {
+        let records = push(method, pusher, Pushed::Ball(0.1), start, 0.0, steps);
+        check_push(method, &records, bound);
+    }
+}
+
 /// Runs `steps` steps of `pusher` meeting `pushed` (at `start`, with friction `friction` on it,
 /// so on its ground and pusher contacts) on the ground, under `method`.
 fn push(
@@ -363,17 +372,7 @@ fn turning_kinematic_bar_pushes_ball() {
 /// reaches `w^2 R` = 900 m/s^2 at the tip, `a / (2 pi 30 Hz)^2` = 2.5 mm.
 #[test]
 fn fast_turning_kinematic_bar_pushes_ball() {
-    for method in SolverMethod::ALL {
-        let records = push(
-            method,
-            &bar(30.0),
-            Pushed::Ball(0.1),
-            Vec3::new(0.6, 0.1, 0.3),
-            0.0,
-            30,
-        );
-        check_push(method, &records, 3e-3);
-    }
+    pushes_ball_under_every_method(&bar(30.0), Vec3::new(0.6, 0.1, 0.3), 30, 3e-3);
 }
 
 /// A kinematic bar turning at 10 rad/s about an axis 0.8 m from its centre (a 1.2 m bar from
@@ -387,17 +386,7 @@ fn kinematic_bar_turning_off_centre_pushes_ball() {
         centre: Vec3::new(0.8, 0.0, 0.0),
         ..bar(10.0)
     };
-    for method in SolverMethod::ALL {
-        let records = push(
-            method,
-            &pusher,
-            Pushed::Ball(0.1),
-            Vec3::new(0.9, 0.1, -0.35),
-            0.0,
-            60,
-        );
-        check_push(method, &records, 1e-3);
-    }
+    pushes_ball_under_every_method(&pusher, Vec3::new(0.9, 0.1, -0.35), 60, 1e-3);
 }
 
 /// A kinematic bar that translates at 2 m/s along x and turns at 6 rad/s, from x = -1, meets a
@@ -413,17 +402,7 @@ fn translating_and_turning_kinematic_bar_pushes_ball() {
         linear: Vec3::new(2.0, 0.0, 0.0),
         ..bar(6.0)
     };
-    for method in SolverMethod::ALL {
-        let records = push(
-            method,
-            &pusher,
-            Pushed::Ball(0.1),
-            Vec3::new(0.0, 0.1, 0.6),
-            0.0,
-            60,
-        );
-        check_push(method, &records, 1e-3);
-    }
+    pushes_ball_under_every_method(&pusher, Vec3::new(0.0, 0.1, 0.6), 60, 1e-3);
 }
 
 /// A kinematic box (half extents 0.6 x 0.15 x 0.15, centre at y = 0.2) spinning at 4 rad/s
