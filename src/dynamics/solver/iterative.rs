@@ -772,6 +772,8 @@ fn solve_block(
     // c = K_mean / a2, K_mean = 1^T A 1 / N^2 (the points share the normal, so the linear part
     // of 1^T A 1 is N^2 (1/m_A + 1/m_B)).
     let coupling = match (solve.soft, count) {
+        // Point by point, the rows do not use it.
+        _ if pointwise => 0.0,
         (Some(soft), n) if n > 0 => {
             let n = n as f32;
             let sum = n * n * linear + fa * rn_a.dot(ang_a) + fb * rn_b.dot(ang_b);

@@ -549,9 +549,72 @@ fn shock_order(
     } else {
         (0..contacts.len()).map(|i| i..i + 1).collect()
     };
-    // Levels by relaxation over the manifolds' body pairs (Bellman-Ford on unit edges): each
-    // pass lowers a body to one more than its lowest neighbour, so it takes as many passes as
-    // the tallest stack has levels, with no allocation per body.
+    // Only touching manifolds (a point within `touch`) make levels: a speculative contact is no
+    // support. (With it, a die resting on another had the level of the lower die: at 1 mm the
+    // step's fall `g dt^2`, 2.7 mm at 60 Hz, reaches the ground through the lower die, and the
+    // pair of dice was then solved two-body, with no support held and no load carried.)
+    let touching: Vec<bool> = ranges
+        .iter()
+        .map(|r| touches(&contacts[r.clone()], touch))
+        .collect();
+    let level = levels(
+        bodies,
+        ranges
+            .iter()
+            .zip(&touching)
+            .filter(|(_, t)| **t)
+            .map(|(r, _)| (contacts[r.start].body_a, contacts[r.start].body_b)),
+    );
+    // Sorted by (lower level, supported body), ties in manifold order: the keys are made unique
+    // by the manifold's index, so the blocks themselves are moved once.
+    let mut keys: Vec<(u32, usize, usize)> = ranges
+        .iter()
+        .enumerate()
+        .map(|(k, range)| {
+            let c = &contacts[range.start];
+            let (la, lb) = (level[c.body_a], level[c.body_b]);
+            let upper = match la.cmp(&lb) {
+                std::cmp::Ordering::Less => c.body_b,
+                std::cmp::Ordering::Greater => c.body_a,
+                std::cmp::Ordering::Equal => usize::MAX,
+            };
+            (la.min(lb), upper, k)
+        })
+        .collect();
+    keys.sort_unstable();
+    let mut blocks: Vec<Block> = keys
+        .iter()
+        .map(|&(_, _, k)| {
+            let range = ranges[k].clone();
+            let c = &contacts[range.start];
+            let support = match level[c.body_a].cmp(&level[c.body_b]) {
+                std::cmp::Ordering::Less => Support::A,
+                std::cmp::Ordering::Greater => Support::B,
+                std::cmp::Ordering::Equal => Support::Neither,
+            };
+            Block {
+                range,
+                support,
+                hold: 0.0,
+                push: Vec3::ZERO,
+                load: 0.0,
+                lever: 0.0,
+                spread: 0.0,
+                touching: touching[k],
+            }
+        })
+        .collect();
+    support_holds(bodies, contacts, &mut blocks, touch);
+    release_frictional_groups(bodies.len(), contacts, &mut blocks);
+    carried_loads(bodies, contacts, &mut blocks);
+    blocks
+}
+
+/// Each body's level: 0 for a static or kinematic body, one more than its lowest neighbour
+/// through `pairs` for a dynamic one (`u32::MAX` if no chain of pairs reaches a fixed body).
+/// A breadth-first search from the fixed bodies over the pairs, in a compressed adjacency
+/// list: each pair is looked at twice, however tall the stacks.
+fn levels(bodies: &[SolverBody], pairs: impl Iterator<Item = (usize, usize)> + Clone) -> Vec<u32> {
     let mut level: Vec<u32> = bodies
         .iter()
         .map(|b| {
@@ -562,66 +625,38 @@ fn shock_order(
             }
         })
         .collect();
-    // Only touching manifolds (a point within `touch`) make levels: a speculative contact is no
-    // support. (With it, a die resting on another had the level of the lower die: at 1 mm the
-    // step's fall `g dt^2`, 2.7 mm at 60 Hz, reaches the ground through the lower die, and the
-    // pair of dice was then solved two-body, with no support held and no load carried.)
-    let touching: Vec<bool> = ranges
-        .iter()
-        .map(|r| touches(&contacts[r.clone()], touch))
+    let mut start = vec![0u32; bodies.len() + 1];
+    for (a, b) in pairs.clone() {
+        start[a + 1] += 1;
+        start[b + 1] += 1;
+    }
+    for i in 0..bodies.len() {
+        start[i + 1] += start[i];
+    }
+    let mut next = start.clone();
+    let mut neighbours = vec![0u32; start[bodies.len()] as usize];
+    for (a, b) in pairs {
+        neighbours[next[a] as usize] = b as u32;
+        next[a] += 1;
+        neighbours[next[b] as usize] = a as u32;
+        next[b] += 1;
+    }
+    let mut queue: Vec<u32> = (0..bodies.len() as u32)
+        .filter(|&i| level[i as usize] == 0)
         .collect();
-    let pairs: Vec<(usize, usize)> = ranges
-        .iter()
-        .zip(&touching)
-        .filter(|(_, t)| **t)
-        .map(|(r, _)| (contacts[r.start].body_a, contacts[r.start].body_b))
-        .collect();
-    loop {
-        let mut lowered = false;
-        for &(a, b) in &pairs {
-            for (from, to) in [(a, b), (b, a)] {
-                let via = level[from].saturating_add(1);
-                if via < level[to] {
-                    level[to] = via;
-                    lowered = true;
-                }
+    let mut head = 0;
+    while head < queue.len() {
+        let from = queue[head] as usize;
+        head += 1;
+        let via = level[from] + 1;
+        for &to in &neighbours[start[from] as usize..start[from + 1] as usize] {
+            if level[to as usize] == u32::MAX {
+                level[to as usize] = via;
+                queue.push(to);
             }
         }
-        if !lowered {
-            break;
-        }
     }
-    let mut blocks: Vec<((u32, usize), Block)> = ranges
-        .into_iter()
-        .zip(touching)
-        .map(|(range, touching)| {
-            let c = &contacts[range.start];
-            let (la, lb) = (level[c.body_a], level[c.body_b]);
-            let support = match la.cmp(&lb) {
-                std::cmp::Ordering::Less => Support::A,
-                std::cmp::Ordering::Greater => Support::B,
-                std::cmp::Ordering::Equal => Support::Neither,
-            };
-            let block = Block {
-                range,
-                support,
-                hold: 0.0,
-                push: Vec3::ZERO,
-                load: 0.0,
-                lever: 0.0,
-                spread: 0.0,
-                touching,
-            };
-            let upper = block.upper(contacts).unwrap_or(usize::MAX);
-            ((la.min(lb), upper), block)
-        })
-        .collect();
-    blocks.sort_by_key(|(key, _)| *key);
-    let mut blocks: Vec<Block> = blocks.into_iter().map(|(_, b)| b).collect();
-    support_holds(bodies, contacts, &mut blocks, touch);
-    release_frictional_groups(bodies.len(), contacts, &mut blocks);
-    carried_loads(bodies, contacts, &mut blocks);
-    blocks
+    level
 }
 
 /// Solves the manifolds of a body that rests on several supports, with friction on any of
@@ -1198,6 +1233,31 @@ mod tests {
             true,
             BVec3::FALSE,
         )
+    }
+
+    /// Levels worked out by hand: a static floor (0) and a kinematic platform (5) are level 0;
+    /// a column 1, 2, 3 on the floor is 1, 2, and 2 for 3, which also touches 4; body 4 rests on
+    /// 3 and on the platform, so it is 1 (its lowest neighbour, not the column below it); 6
+    /// hangs on 4 only (2); 7 touches
+    /// nothing fixed through any chain, nor does 8 that rests on it (u32::MAX). Pairs listed
+    /// top-down and twice, so one pass in list order would not find the answer.
+    #[test]
+    fn levels_are_hops_from_the_nearest_fixed_body() {
+        let mut bodies: Vec<SolverBody> = (0..9).map(|_| cube(Motion::Dynamic, 1.0)).collect();
+        bodies[0] = cube(Motion::Static, 1.0);
+        bodies[5] = cube(Motion::Kinematic, 1.0);
+        let pairs = [
+            (8, 7),
+            (6, 4),
+            (3, 4),
+            (2, 3),
+            (1, 2),
+            (0, 1),
+            (4, 5),
+            (3, 2),
+        ];
+        let level = levels(&bodies, pairs.iter().copied());
+        assert_eq!(level, vec![0, 1, 2, 2, 1, 0, 2, u32::MAX, u32::MAX]);
     }
 
     /// One single-point manifold per body pair (normals from the first body to the second).
