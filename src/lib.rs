@@ -76,6 +76,13 @@ impl PluginGroup for PhysicsPlugins {
             })
             .add(collision::CollisionPlugin)
             .add(dynamics::DynamicsPlugin)
+            .add(pipeline::PreparePlugin)
+            .add(pipeline::BroadPhasePlugin)
+            .add(pipeline::NarrowPhasePlugin)
+            .add(pipeline::SolvePlugin)
+            .add(pipeline::WriteBackPlugin)
+            .add(pipeline::SleepPlugin)
+            .add(pipeline::MessagesPlugin)
             .add(interpolation::InterpolationPlugin::default())
     }
 }

@@ -16,8 +16,6 @@ use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
 use bevy::prelude::*;
 
-use crate::pipeline::{self, PhysicsState};
-
 /// The schedule that runs one physics step. It is run once per run of the schedule the plugins
 /// were given (`FixedPostUpdate` by default), single-threaded, so results are deterministic.
 #[derive(ScheduleLabel, Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -65,12 +63,7 @@ impl Plugin for PhysicsSchedulePlugin {
                 .chain(),
         );
         app.add_schedule(schedule);
-        app.init_resource::<PhysicsState>();
         app.add_systems(self.schedule, run_physics_schedule);
-        app.add_systems(
-            PhysicsSchedule,
-            pipeline::send_messages.in_set(PhysicsSystems::Messages),
-        );
     }
 }
 

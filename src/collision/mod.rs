@@ -10,24 +10,16 @@ pub use narrow_phase::{ContactPair, ContactPairs};
 use bevy::prelude::*;
 
 use crate::messages::{CollisionEnded, CollisionStarted};
-use crate::pipeline;
-use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-/// Broad and narrow phase: candidate pairs, persistent contact manifolds, and the
-/// `CollisionStarted` / `CollisionEnded` messages.
+/// Colliders and contact pairs: the [`ContactPairs`] resource and the `CollisionStarted` /
+/// `CollisionEnded` messages. The broad and narrow phase systems are
+/// [`crate::pipeline`]'s stages.
 pub struct CollisionPlugin;
 
 impl Plugin for CollisionPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ContactPairs>()
             .add_message::<CollisionStarted>()
-            .add_message::<CollisionEnded>()
-            .add_systems(
-                PhysicsSchedule,
-                (
-                    pipeline::update_broad_phase.in_set(PhysicsSystems::BroadPhase),
-                    pipeline::update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
-                ),
-            );
+            .add_message::<CollisionEnded>();
     }
 }

@@ -18,11 +18,9 @@ pub use validation::PhysicsLengthUnit;
 use bevy::prelude::*;
 
 use crate::messages::Impact;
-use crate::pipeline;
-use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-/// Bodies, mass properties and the solver: validates and gathers bodies, solves contacts,
-/// integrates, writes results back, and sends `Impact` messages.
+/// Bodies, mass properties and the solver's settings: registers the components and resources
+/// and the `Impact` message. The systems that step them are [`crate::pipeline`]'s stages.
 pub struct DynamicsPlugin;
 
 impl Plugin for DynamicsPlugin {
@@ -47,15 +45,6 @@ impl Plugin for DynamicsPlugin {
             .register_type::<LockedAxes>()
             .register_type::<Gravity>()
             .register_type::<SolverConfig>()
-            .register_type::<SolverStats>()
-            .add_systems(
-                PhysicsSchedule,
-                (
-                    pipeline::prepare_bodies.in_set(PhysicsSystems::Prepare),
-                    pipeline::solve_contacts.in_set(PhysicsSystems::Solve),
-                    pipeline::write_back.in_set(PhysicsSystems::WriteBack),
-                    pipeline::update_sleep.in_set(PhysicsSystems::Sleep),
-                ),
-            );
+            .register_type::<SolverStats>();
     }
 }

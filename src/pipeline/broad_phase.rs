@@ -1,0 +1,158 @@
+//! The broad phase: candidate pairs from bounding boxes swept along each body's motion in the
+//! step, and the wake of sleeping bodies an awake body's box reaches.
+
+use bevy::prelude::*;
+
+use crate::collision::ContactPairs;
+use crate::collision::broad_phase::pairs_with_active;
+use crate::dynamics::solver::Motion;
+use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+
+use super::{PhysicsState, bring_in_overlapped, mark_awake_active, wake_islands};
+
+/// Adds [`update_broad_phase`] to [`PhysicsSystems::BroadPhase`].
+pub struct BroadPhasePlugin;
+
+impl Plugin for BroadPhasePlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<PhysicsState>().add_systems(
+            PhysicsSchedule,
+            update_broad_phase.in_set(PhysicsSystems::BroadPhase),
+        );
+    }
+}
+
+/// Finds candidate pairs by sweep and prune, keeping only pairs where at least one body is
+/// dynamic.
+pub fn update_broad_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<ContactPairs>) {
+    let state = &mut *state;
+    // An awake body (dynamic, or kinematic and moving) overlapping a sleeping one wakes its
+    // island now, so that the contact is solved with the sleeper's real mass; repeat until no
+    // more islands wake (a woken island may overlap another sleeping one).
+    loop {
+        bring_in_overlapped(state);
+        pairs_with_active(
+            &state.aabbs,
+            &state.active,
+            &mut state.index_pairs,
+            &mut state.sort_scratch,
+        );
+        let mut islands = Vec::new();
+        for &(i, j) in &state.index_pairs {
+            for (me, other) in [(i as usize, j as usize), (j as usize, i as usize)] {
+                if let Some((island, _)) = state.asleep[me] {
+                    let o = &state.bodies[other];
+                    let active = o.motion == Motion::Dynamic
+                        || (o.motion == Motion::Kinematic
+                            && (o.linear_velocity != Vec3::ZERO
+                                || o.angular_velocity != Vec3::ZERO));
+                    if active && state.asleep[other].is_none() && !islands.contains(&island) {
+                        islands.push(island);
+                    }
+                }
+            }
+        }
+        if islands.is_empty() || !wake_islands(state, &islands) {
+            break;
+        }
+        // The woken bodies are active now: search their pairs too.
+        mark_awake_active(state);
+    }
+    // Resting pairs set aside while their sleeping bodies sat out come back among the
+    // candidates when one of their bodies is in the step again, when the other body (static)
+    // changed, or when it is gone.
+    if pairs.has_resting() {
+        let mut back: Vec<Entity> = state.entered.clone();
+        back.extend(state.departed.iter().copied());
+        back.extend(
+            state
+                .entities
+                .iter()
+                .zip(&state.active)
+                .zip(&state.bodies)
+                .filter(|&((_, &active), body)| active && body.motion == Motion::Static)
+                .map(|((&e, _), _)| e),
+        );
+        if !back.is_empty() {
+            back.sort_unstable();
+            pairs.revive(|p| back.binary_search(&p.a).is_ok() || back.binary_search(&p.b).is_ok());
+        }
+    }
+    // Pairs of two inactive bodies cannot have changed since the last step (neither moved):
+    // carry them over instead of sweeping every sleeping and static body each step. A pair of
+    // which a body sits out the step asleep, the other sitting out too or inactive, is set
+    // aside as it is.
+    if !pairs.candidates().is_empty()
+        && (state.active.iter().any(|a| !a) || !state.sleepers.is_empty())
+    {
+        state.index_of.clear();
+        state.index_of.extend(
+            state
+                .entities
+                .iter()
+                .enumerate()
+                .map(|(i, &e)| (e, i as u32)),
+        );
+        state.index_of.sort_unstable();
+        let find = |e: Entity| {
+            state
+                .index_of
+                .binary_search_by_key(&e, |&(e, _)| e)
+                .ok()
+                .map(|k| state.index_of[k].1)
+        };
+        let mut aside = Vec::new();
+        for (k, p) in pairs.candidates().iter().enumerate() {
+            match (find(p.a), find(p.b)) {
+                (Some(i), Some(j)) => {
+                    if !state.active[i as usize] && !state.active[j as usize] {
+                        state.index_pairs.push((i.min(j), i.max(j)));
+                    }
+                }
+                (i, j) => {
+                    let resting = |e: Entity, i: Option<u32>| match i {
+                        Some(i) => !state.active[i as usize],
+                        None => state.sleepers.get(e).is_some(),
+                    };
+                    if resting(p.a, i) && resting(p.b, j) {
+                        aside.resize(pairs.candidates().len(), false);
+                        aside[k] = true;
+                    }
+                }
+            }
+        }
+        if !aside.is_empty() {
+            aside.resize(pairs.candidates().len(), false);
+            pairs.set_aside(&aside);
+        }
+    }
+    let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
+        .index_pairs
+        .iter()
+        .map(|&(i, j)| (i as usize, j as usize))
+        .filter(|&(i, j)| {
+            // Pairs with a sleeping body are kept (dormant), so sleep does not end collisions.
+            let live =
+                |k: usize| state.bodies[k].motion == Motion::Dynamic || state.asleep[k].is_some();
+            live(i) || live(j)
+        })
+        .map(|(i, j)| {
+            let (ei, ej) = (state.entities[i], state.entities[j]);
+            if ei < ej {
+                ((ei, ej), (i, j))
+            } else {
+                ((ej, ei), (j, i))
+            }
+        })
+        .collect();
+    keyed.sort_unstable_by_key(|(k, _)| *k);
+    state.candidates.clear();
+    state.candidate_indices.clear();
+    state.dormant.clear();
+    for (k, (i, j)) in keyed {
+        state.candidates.push(k);
+        state.candidate_indices.push((i, j));
+        let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
+        state.dormant.push(!awake(i) && !awake(j));
+    }
+}

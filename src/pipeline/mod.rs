@@ -1,0 +1,286 @@
+//! The ECS side of a physics step, one file a stage, in the order [`crate::schedule`] chains
+//! them: [`prepare`], [`broad_phase`], [`narrow_phase`], [`solve`], [`write_back`](mod@write_back), [`sleep`],
+//! [`messages`]. Each stage is a thin gather and scatter around the plain functions of
+//! [`crate::collision`] and [`crate::dynamics`], and has its own plugin adding its system to its
+//! [`PhysicsSystems`](crate::schedule::PhysicsSystems) set, so a stage can be left out or
+//! replaced in [`PhysicsPlugins`](crate::PhysicsPlugins). The stages share the packed arrays of
+//! the step in [`PhysicsState`]. Nothing in `collision`, `dynamics` or `schedule` imports this
+//! module.
+
+pub mod broad_phase;
+pub mod messages;
+pub mod narrow_phase;
+pub mod prepare;
+pub mod sleep;
+pub mod solve;
+pub mod write_back;
+
+pub use broad_phase::{BroadPhasePlugin, update_broad_phase};
+pub use messages::{MessagesPlugin, send_messages};
+pub use narrow_phase::{NarrowPhasePlugin, update_narrow_phase};
+pub use prepare::{PreparePlugin, prepare_bodies};
+pub use sleep::{SleepPlugin, update_sleep};
+pub use solve::{SolvePlugin, solve_contacts};
+pub use write_back::{WriteBackPlugin, write_back};
+
+use std::ops::Range;
+
+use bevy::prelude::*;
+use parry3d::math::Pose;
+use parry3d::shape::SharedShape;
+
+use crate::collision::narrow_phase::TOUCH_DISTANCE;
+use crate::dynamics::sleep::{SleepConfig, SleepingSet};
+use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
+use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
+use crate::dynamics::{Gravity, SolverConfig};
+use crate::messages::Impact;
+
+/// The packed arrays of the current step, gathered once and shared by the stages.
+#[derive(Resource, Default)]
+pub struct PhysicsState {
+    /// Step length, s.
+    dt: f32,
+    /// The entity of each solver body.
+    entities: Vec<Entity>,
+    /// Solver bodies, in the order of `entities`.
+    bodies: Vec<SolverBody>,
+    /// Local centre of mass of each body (the pose in `Transform` is the body origin).
+    local_com: Vec<Vec3>,
+    shapes: Vec<SharedShape>,
+    /// Collider pose (the body origin) at the start of the step.
+    poses: Vec<Pose>,
+    restitution: Vec<f32>,
+    friction: Vec<f32>,
+    /// How far each body can move in one step, m: `|v| dt + |w| dt R`.
+    reach: Vec<f32>,
+    /// How far rotation alone can carry a point of each body in one step, m: `|w| dt R`, zero
+    /// for spheres (a turning sphere's surface stays in place) and static bodies.
+    spin_reach: Vec<f32>,
+    aabbs: Vec<parry3d::bounding_volume::Aabb>,
+    /// The body can have gained or lost an overlap since the last step: awake, kinematic, or
+    /// static or sleeping but changed (or asleep only since the end of the last step). Pairs
+    /// of two inactive bodies are carried over from the last step instead of being searched.
+    active: Vec<bool>,
+    /// Scratch: (entity, body index), sorted, to find the carried-over pairs' bodies.
+    index_of: Vec<(Entity, u32)>,
+    index_pairs: Vec<(u32, u32)>,
+    sort_scratch: Vec<u32>,
+    /// Broad-phase pairs as entities `(a, b)`, `a < b`, sorted, with their body indices.
+    candidates: Vec<(Entity, Entity)>,
+    candidate_indices: Vec<(usize, usize)>,
+    /// Per candidate: neither body is awake and dynamic (a sleeping body with a sleeping or
+    /// static one), so the pair keeps its manifolds and touching state without a narrow phase.
+    dormant: Vec<bool>,
+    contacts: Vec<ContactConstraint>,
+    /// Contact index ranges of one body pair each.
+    pair_ranges: Vec<Range<usize>>,
+    /// For each contact: (pair, manifold, point) in [`ContactPairs`].
+    contact_keys: Vec<(u32, u32, u32)>,
+    impacts: Vec<Impact>,
+    started: Vec<(Entity, Entity)>,
+    ended: Vec<(Entity, Entity)>,
+    /// Bounding radius of each body about its centre of mass, m.
+    radius: Vec<f32>,
+    /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
+    /// solver body it becomes if it is woken in this step.
+    asleep: Vec<Option<(Entity, SolverBody)>>,
+    /// Islands woken in this step; their `Sleeping` markers are removed.
+    woken: Vec<Entity>,
+    /// Bodies of pairs that disappeared in this step (a neighbour despawned, was quarantined
+    /// or moved away): a sleeping one wakes its island.
+    lost: Vec<Entity>,
+    /// The sleeping bodies that sit out the step until something touches them.
+    sleepers: SleepingSet,
+    /// Counts steps (wrapping), to mark the sleepers put into this step's arrays.
+    step: u32,
+    /// Sleeping bodies put into this step's arrays (read, or brought in).
+    entered: Vec<Entity>,
+    /// Bodies that left the step since the last one: despawned, collider removed, or
+    /// quarantined. Their resting pairs end.
+    departed: Vec<Entity>,
+    /// Sleeping-marked bodies read every step: quarantined ones, and those that are not
+    /// dynamic (they take part in the step as any other body).
+    read_every_step: Vec<Entity>,
+    /// Steps since the propagation bound warning was last logged.
+    steps_since_bound_warning: u32,
+    /// The settings of this step, validated (see [`validate_settings`]) and with lengths and
+    /// speeds scaled by the length unit: the stages read these, never the resources, so the
+    /// solver only sees valid values.
+    settings: Settings,
+    /// The last valid settings as the user gave them (unscaled): what an invalid value falls
+    /// back on.
+    last_good: Settings,
+    /// The messages about invalid settings logged in the last step: a message is logged when
+    /// it first appears, not again while the same bad value stays.
+    settings_reported: Vec<String>,
+}
+
+/// The validated settings of one step.
+#[derive(Clone, Debug)]
+struct Settings {
+    config: SolverConfig,
+    gravity: Gravity,
+    sleep: SleepConfig,
+    dt: f32,
+    length_unit: f32,
+    /// [`TOUCH_DISTANCE`] in the length unit, m.
+    touch_distance: f32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            config: SolverConfig::default(),
+            gravity: Gravity::default(),
+            sleep: SleepConfig::default(),
+            dt: DEFAULT_DT,
+            length_unit: 1.0,
+            touch_distance: TOUCH_DISTANCE,
+        }
+    }
+}
+
+/// Validates the settings resources and the step length against the last good values (see
+/// [`SolverConfig::validated`]), logging each invalid value once, as an error naming the
+/// field and the value, for as long as it stays.
+fn validate_settings(
+    state: &mut PhysicsState,
+    config: &SolverConfig,
+    gravity: &Gravity,
+    sleep: &SleepConfig,
+    unit: &PhysicsLengthUnit,
+    dt: f32,
+) {
+    let last = &state.last_good;
+    let (config, mut errors) = config.validated(&last.config);
+    let (gravity, e) = gravity.validated(last.gravity);
+    errors.extend(e);
+    let (sleep, e) = sleep.validated(&last.sleep);
+    errors.extend(e);
+    let (dt, e) = validated_dt(dt, last.dt);
+    errors.extend(e);
+    let (unit, e) = unit.validated(last.length_unit);
+    errors.extend(e);
+    for error in &errors {
+        if !state.settings_reported.contains(error) {
+            log::error!("impact3d: invalid setting: {error}");
+        }
+    }
+    state.settings_reported = errors;
+    state.last_good = Settings {
+        config,
+        gravity,
+        sleep,
+        dt,
+        length_unit: unit,
+        touch_distance: TOUCH_DISTANCE,
+    };
+    state.settings = state.last_good.scaled();
+}
+
+impl Settings {
+    /// These settings with every length (m) and speed (m/s) multiplied by the length unit.
+    fn scaled(&self) -> Settings {
+        let u = self.length_unit;
+        let mut s = self.clone();
+        let c = &mut s.config;
+        c.contact_margin *= u;
+        c.linear_slop *= u;
+        c.velocity_tolerance *= u;
+        c.restitution_threshold *= u;
+        c.max_push_out_speed *= u;
+        s.sleep.linear_threshold *= u;
+        s.touch_distance = TOUCH_DISTANCE * u;
+        s
+    }
+}
+
+// The sleeping set's wake fixpoint, shared by the prepare stage and the broad phase.
+
+/// Marks every body that is not static in the solve (a woken sleeper) as active.
+fn mark_awake_active(state: &mut PhysicsState) {
+    for (active, body) in state.active.iter_mut().zip(&state.bodies) {
+        *active |= body.motion != Motion::Static;
+    }
+}
+
+/// Swaps the bodies of the given islands back in as dynamic bodies (bringing in those that sat
+/// out the step) and records the islands as woken (their `Sleeping` markers are removed at the
+/// end of the step). Returns whether any body woke.
+fn wake_islands(state: &mut PhysicsState, islands: &[Entity]) -> bool {
+    if islands.is_empty() {
+        return false;
+    }
+    let mut sorted = islands.to_vec();
+    sorted.sort_unstable();
+    let members: Vec<u32> = (0..state.sleepers.len() as u32)
+        .filter(|&i| {
+            !state.sleepers.in_step(i, state.step)
+                && sorted
+                    .binary_search(&state.sleepers.record(i).island)
+                    .is_ok()
+        })
+        .collect();
+    for i in members {
+        bring_in(state, i);
+    }
+    let mut any = false;
+    for i in 0..state.bodies.len() {
+        if let Some((island, body)) = state.asleep[i]
+            && islands.contains(&island)
+        {
+            state.bodies[i] = body;
+            state.asleep[i] = None;
+            any = true;
+            if !state.woken.contains(&island) {
+                state.woken.push(island);
+            }
+        }
+    }
+    any
+}
+
+/// Puts sleeping body `i` of the [`SleepingSet`] into the step's arrays, as it was gathered:
+/// a static body that becomes its dynamic self if its island wakes.
+fn bring_in(state: &mut PhysicsState, i: u32) {
+    state.sleepers.mark_in_step(i, state.step);
+    let s = state.sleepers.record(i);
+    state.entities.push(s.entity);
+    state.bodies.push(SolverBody::new(
+        Motion::Static,
+        s.body.position,
+        s.body.rotation,
+    ));
+    state.local_com.push(s.local_com);
+    state.shapes.push(s.shape.clone());
+    state.poses.push(s.pose);
+    state.restitution.push(s.restitution);
+    state.friction.push(s.friction);
+    state.reach.push(0.0);
+    state.spin_reach.push(0.0);
+    state.aabbs.push(state.sleepers.aabb(i));
+    state.active.push(false);
+    state.radius.push(s.radius);
+    state.asleep.push(Some((s.island, s.body)));
+    state.entered.push(s.entity);
+}
+
+/// Brings in every sleeping body whose box an active body's box overlaps, so that the sweep
+/// finds their pairs as if every sleeping body were in the arrays.
+fn bring_in_overlapped(state: &mut PhysicsState) {
+    if state.sleepers.is_empty() {
+        return;
+    }
+    let mut found = Vec::new();
+    for i in 0..state.bodies.len() {
+        if state.active[i] {
+            state.sleepers.overlapping(&state.aabbs[i], &mut found);
+        }
+    }
+    for k in found {
+        if !state.sleepers.in_step(k, state.step) {
+            bring_in(state, k);
+        }
+    }
+}

@@ -1,0 +1,544 @@
+//! The prepare stage: validates the settings and every body (quarantining bad input, logging
+//! an error that names the entity), keeps mass properties up to date, and packs the solver
+//! bodies; sleeping bodies sit the step out until something may touch them.
+
+use bevy::ecs::query::QueryData;
+use bevy::ecs::system::{SystemChangeTick, SystemParam};
+use bevy::prelude::*;
+use parry3d::bounding_volume::BoundingVolume;
+use parry3d::math::Pose;
+
+use crate::collision::Collider;
+use crate::dynamics::sleep::{SleepConfig, Sleeper, Sleeping};
+use crate::dynamics::solver::{Motion, SolverBody};
+use crate::dynamics::validation::{
+    MAX_ANGULAR_SPEED, MAX_COORDINATE, MAX_LINEAR_SPEED, PhysicsLengthUnit, body_label,
+    check_length, within,
+};
+use crate::dynamics::{
+    AngularVelocity, ComputedMass, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass,
+    Quarantined, Restitution, RigidBody, SolverConfig,
+};
+use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+
+use super::{PhysicsState, mark_awake_active, validate_settings, wake_islands};
+
+/// Adds [`prepare_bodies`] to [`PhysicsSystems::Prepare`].
+pub struct PreparePlugin;
+
+impl Plugin for PreparePlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<PhysicsState>().add_systems(
+            PhysicsSchedule,
+            prepare_bodies.in_set(PhysicsSystems::Prepare),
+        );
+    }
+}
+
+/// The components of a body as the prepare stage reads them.
+#[derive(QueryData)]
+#[query_data(mutable)]
+pub struct BodyData {
+    entity: Entity,
+    collider: Ref<'static, Collider>,
+    body: Option<Ref<'static, RigidBody>>,
+    transform: Ref<'static, Transform>,
+    linear_velocity: Option<Ref<'static, LinearVelocity>>,
+    angular_velocity: Option<Ref<'static, AngularVelocity>>,
+    restitution: Option<Ref<'static, Restitution>>,
+    friction: Option<Ref<'static, Friction>>,
+    mass: Option<Ref<'static, Mass>>,
+    density: Option<Ref<'static, Density>>,
+    computed: Option<&'static mut ComputedMass>,
+    locked: Option<&'static LockedAxes>,
+    name: Option<&'static Name>,
+    quarantined: Option<&'static Quarantined>,
+    sleeping: Option<Ref<'static, Sleeping>>,
+}
+
+/// Change filter of a sleeping body: any of the components the prepare stage reads changed
+/// since its last run (or the marker was just added). A sleeping body that matches none sits
+/// out the step (see [`SleepingSet`]).
+type Disturbed = Or<(
+    Changed<Sleeping>,
+    Changed<Transform>,
+    Changed<Collider>,
+    Changed<RigidBody>,
+    Changed<LinearVelocity>,
+    Changed<AngularVelocity>,
+    Changed<Restitution>,
+    Changed<Friction>,
+    Changed<Mass>,
+    Changed<Density>,
+    Changed<ComputedMass>,
+    Changed<LockedAxes>,
+)>;
+
+/// The settings resources and the clock a step reads.
+#[derive(SystemParam)]
+pub struct StepSettings<'w> {
+    time: Res<'w, Time>,
+    config: Res<'w, SolverConfig>,
+    gravity: Res<'w, Gravity>,
+    sleep: Res<'w, SleepConfig>,
+    unit: Res<'w, PhysicsLengthUnit>,
+}
+
+/// The sleeping bodies: the entities of those disturbed since the last step, and every
+/// sleeping body with the components the prepare stage reads.
+type SleepingBodies<'w, 's> = ParamSet<
+    'w,
+    's,
+    (
+        Query<'static, 'static, Entity, (With<Sleeping>, With<Collider>, Disturbed)>,
+        Query<'static, 'static, BodyData, With<Sleeping>>,
+    ),
+>;
+
+/// The removals of components a body's gathered state depends on. A sleeping body that lost
+/// one is read again; one that lost its collider (or was despawned) ends its resting pairs.
+#[derive(SystemParam)]
+pub struct BodyRemovals<'w, 's> {
+    sleeping: RemovedComponents<'w, 's, Sleeping>,
+    collider: RemovedComponents<'w, 's, Collider>,
+    body: RemovedComponents<'w, 's, RigidBody>,
+    transform: RemovedComponents<'w, 's, Transform>,
+    linear: RemovedComponents<'w, 's, LinearVelocity>,
+    angular: RemovedComponents<'w, 's, AngularVelocity>,
+    restitution: RemovedComponents<'w, 's, Restitution>,
+    friction: RemovedComponents<'w, 's, Friction>,
+    mass: RemovedComponents<'w, 's, Mass>,
+    density: RemovedComponents<'w, 's, Density>,
+    computed: RemovedComponents<'w, 's, ComputedMass>,
+    locked: RemovedComponents<'w, 's, LockedAxes>,
+}
+
+/// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
+/// mass properties up to date and packs the solver bodies. A collider without a `RigidBody` is
+/// static.
+///
+/// A sleeping body is read only when something may have touched it (a component it depends
+/// on changed or was removed, or it was just put to sleep); the others keep their record in
+/// the [`SleepingSet`](crate::dynamics::sleep::SleepingSet) and sit out the step, unless the
+/// broad phase finds an awake body's box over theirs or their island wakes.
+pub fn prepare_bodies(
+    mut commands: Commands,
+    ticks: SystemChangeTick,
+    settings: StepSettings,
+    mut state: ResMut<PhysicsState>,
+    mut awake: Query<BodyData, Without<Sleeping>>,
+    mut sleeping: SleepingBodies,
+    mut removals: BodyRemovals,
+) {
+    let state = &mut *state;
+    validate_settings(
+        state,
+        &settings.config,
+        &settings.gravity,
+        &settings.sleep,
+        &settings.unit,
+        settings.time.delta_secs(),
+    );
+    let sleep_enabled = state.settings.sleep.enabled;
+    state.dt = state.settings.dt;
+    state.step = state.step.wrapping_add(1);
+    state.entities.clear();
+    state.bodies.clear();
+    state.local_com.clear();
+    state.shapes.clear();
+    state.poses.clear();
+    state.restitution.clear();
+    state.friction.clear();
+    state.reach.clear();
+    state.spin_reach.clear();
+    state.aabbs.clear();
+    state.active.clear();
+    state.radius.clear();
+    state.asleep.clear();
+    state.woken.clear();
+    state.entered.clear();
+    state.departed.clear();
+
+    for mut item in awake.iter_mut() {
+        if let Gathered::Quarantined = gather_body(state, &mut commands, &ticks, &mut item) {
+            state.departed.push(item.entity);
+        }
+    }
+
+    // The sleeping bodies to read: the disturbed ones, those that lost a component, and those
+    // that must be read every step (quarantined, or not dynamic); all of them when sleeping
+    // is off.
+    let mut read: Vec<Entity> = std::mem::take(&mut state.read_every_step);
+    state.departed.extend(removals.collider.read());
+    for entity in removals.sleeping.read() {
+        state.sleepers.remove(entity);
+    }
+    let removed = [
+        removals.body.read().collect::<Vec<_>>(),
+        removals.transform.read().collect(),
+        removals.linear.read().collect(),
+        removals.angular.read().collect(),
+        removals.restitution.read().collect(),
+        removals.friction.read().collect(),
+        removals.mass.read().collect(),
+        removals.density.read().collect(),
+        removals.computed.read().collect(),
+        removals.locked.read().collect(),
+    ];
+    for entity in removed.into_iter().flatten() {
+        if state.sleepers.get(entity).is_some() {
+            state.sleepers.remove(entity);
+            read.push(entity);
+        }
+    }
+    let departed = state.departed.clone();
+    for &entity in &departed {
+        state.sleepers.remove(entity);
+    }
+    if sleep_enabled {
+        read.extend(sleeping.p0().iter());
+    } else {
+        state.sleepers.clear();
+        read.extend(sleeping.p1().iter().map(|item| item.entity));
+    }
+    read.sort_unstable();
+    read.dedup();
+    state
+        .sleepers
+        .set_margin(state.settings.config.contact_margin);
+    let mut query = sleeping.p1();
+    for entity in read {
+        let Ok(mut item) = query.get_mut(entity) else {
+            continue;
+        };
+        match gather_body(state, &mut commands, &ticks, &mut item) {
+            Gathered::Asleep => {
+                let i = state.entities.len() - 1;
+                let (island, body) = state.asleep[i].expect("gathered asleep");
+                state.sleepers.insert(
+                    Sleeper {
+                        entity,
+                        island,
+                        body,
+                        local_com: state.local_com[i],
+                        shape: state.shapes[i].clone(),
+                        pose: state.poses[i],
+                        restitution: state.restitution[i],
+                        friction: state.friction[i],
+                        radius: state.radius[i],
+                    },
+                    state.step,
+                );
+                state.entered.push(entity);
+            }
+            Gathered::Quarantined => {
+                state.sleepers.remove(entity);
+                state.departed.push(entity);
+                state.read_every_step.push(entity);
+            }
+            Gathered::Awake => {
+                state.sleepers.remove(entity);
+                state.read_every_step.push(entity);
+            }
+        }
+    }
+    if !sleep_enabled {
+        state.read_every_step.clear();
+        return;
+    }
+    // Islands the user touched wake whole.
+    let woken = std::mem::take(&mut state.woken);
+    wake_islands(state, &woken);
+    mark_awake_active(state);
+}
+
+/// What [`gather_body`] made of a body.
+enum Gathered {
+    /// Left out of the step (bad input).
+    Quarantined,
+    /// Packed as a dynamic, kinematic or static body.
+    Awake,
+    /// Packed as a sleeping body (static in the solve unless woken).
+    Asleep,
+}
+
+/// Validates one body and packs it into the step's arrays (see [`prepare_bodies`]).
+fn gather_body(
+    state: &mut PhysicsState,
+    commands: &mut Commands,
+    ticks: &SystemChangeTick,
+    item: &mut BodyDataItem,
+) -> Gathered {
+    let (config, sleep) = (&state.settings.config, &state.settings.sleep);
+    let (margin, speculative, sleep_enabled) = (
+        config.contact_margin,
+        config.speculative_contacts,
+        sleep.enabled,
+    );
+    let dt = state.settings.dt;
+    let gravity_speed = state.settings.gravity.0.length() * dt;
+    let entity = item.entity;
+    let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
+    let check = validate(item, kind);
+    let label = || body_label(entity, item.name);
+    match (check, item.quarantined) {
+        (Err(reason), quarantined) => {
+            if quarantined.is_none_or(|q| q.reason != reason) {
+                log::error!(
+                    "impact3d: {} is left out of the physics step: {reason}",
+                    label()
+                );
+                commands.entity(entity).insert(Quarantined { reason });
+            }
+            return Gathered::Quarantined;
+        }
+        (Ok(()), Some(_)) => {
+            log::info!(
+                "impact3d: {} is valid again and rejoins the physics step",
+                label()
+            );
+            commands.entity(entity).remove::<Quarantined>();
+        }
+        (Ok(()), None) => {}
+    }
+    warn_on_coefficient_change(&label, item.restitution.as_ref(), "restitution", 1.0);
+    warn_on_coefficient_change(&label, item.friction.as_ref(), "friction", f32::INFINITY);
+    let rotation = item.transform.rotation.normalize();
+    let translation = item.transform.translation;
+    let motion = match kind {
+        RigidBody::Dynamic => Motion::Dynamic,
+        RigidBody::Kinematic => Motion::Kinematic,
+        RigidBody::Static => Motion::Static,
+    };
+    let computed = item.computed.as_deref().copied().unwrap_or_default();
+    let local_com = if motion == Motion::Dynamic {
+        computed.local_center_of_mass
+    } else {
+        Vec3::ZERO
+    };
+    let linear = item.linear_velocity.as_deref().map_or(Vec3::ZERO, |v| v.0);
+    let angular = item.angular_velocity.as_deref().map_or(Vec3::ZERO, |w| w.0);
+    let body = SolverBody::new(motion, translation + rotation * local_com, rotation)
+        .with_mass(
+            computed.inverse_mass,
+            computed.local_inverse_inertia,
+            computed.isotropic,
+            item.locked.map_or(BVec3::FALSE, |l| l.rotation),
+        )
+        .with_velocity(linear, angular);
+
+    let shape = item.collider.shape().clone();
+    let pose = Pose::from_parts(translation, rotation);
+    let radius = if item.collider.is_unbounded_or_hollow() {
+        0.0
+    } else {
+        let local = shape.compute_local_aabb();
+        (local.mins - local_com)
+            .abs()
+            .max((local.maxs - local_com).abs())
+            .length()
+    };
+    // A sleeping body enters the step as static; it is swapped back in if woken.
+    let asleep = match (&item.sleeping, kind) {
+        (Some(marker), RigidBody::Dynamic) if sleep_enabled => {
+            let since = marker.added();
+            let now = ticks.this_run();
+            let touched = item.transform.last_changed().is_newer_than(since, now)
+                || item
+                    .linear_velocity
+                    .as_ref()
+                    .is_some_and(|v| v.last_changed().is_newer_than(since, now))
+                || item
+                    .angular_velocity
+                    .as_ref()
+                    .is_some_and(|w| w.last_changed().is_newer_than(since, now));
+            let island = if marker.island == Entity::PLACEHOLDER {
+                entity
+            } else {
+                marker.island
+            };
+            if touched {
+                state.woken.push(island);
+            }
+            Some(island)
+        }
+        _ => None,
+    };
+    let (body, asleep) = match asleep {
+        Some(island) => (
+            SolverBody::new(Motion::Static, body.position, body.rotation),
+            Some((island, body)),
+        ),
+        None => (body, None),
+    };
+    let moving = speculative && body.motion != Motion::Static;
+    // Gravity adds up to |g| dt to a dynamic body's speed within the step: without it, a
+    // body falling from just beyond its reach lands `|g| dt^2` deep.
+    let gained = if body.motion == Motion::Dynamic {
+        gravity_speed
+    } else {
+        0.0
+    };
+    let reach = if moving {
+        (body.linear_velocity.length() + gained + body.angular_velocity.length() * radius) * dt
+    } else {
+        0.0
+    };
+    // The box swept along the step's linear motion, widened by the margin and by how far
+    // rotation can carry a point (|w| dt R): unlike a box widened by the whole reach in
+    // every direction, it does not pull in bodies beside a fast body's path.
+    let aabb = shape.compute_aabb(&pose);
+    let aabb = if moving {
+        let travel = body.linear_velocity * dt
+            + 0.5 * gained * dt * state.settings.gravity.0.normalize_or_zero();
+        let end = parry3d::bounding_volume::Aabb::new(aabb.mins + travel, aabb.maxs + travel);
+        aabb.merged(&end)
+            .loosened(0.5 * margin + body.angular_velocity.length() * radius * dt)
+    } else {
+        aabb.loosened(0.5 * margin)
+    };
+
+    state.entities.push(entity);
+    state.bodies.push(body);
+    state.local_com.push(local_com);
+    state.shapes.push(shape);
+    state.poses.push(pose);
+    state.restitution.push(clamp_coefficient(
+        item.restitution.as_deref().map(|r| r.0),
+        1.0,
+    ));
+    state.friction.push(clamp_coefficient(
+        item.friction.as_deref().map(|f| f.0),
+        f32::INFINITY,
+    ));
+    state.reach.push(reach);
+    state
+        .spin_reach
+        .push(if moving && !item.collider.is_sphere() {
+            body.angular_velocity.length() * radius * dt
+        } else {
+            0.0
+        });
+    state.aabbs.push(aabb);
+    // Dynamic and kinematic bodies are active (asleep ones are static here, and turned
+    // back by `wake_islands` if woken); a static or sleeping body only if something about
+    // it changed, or it fell asleep at the end of the last step (its pairs were found
+    // from the box it had at the start of that step).
+    state.active.push(
+        body.motion != Motion::Static
+            || item.transform.is_changed()
+            || item.collider.is_changed()
+            || item.body.as_ref().is_some_and(|b| b.is_changed())
+            || item.quarantined.is_some()
+            || item.sleeping.as_ref().is_some_and(|m| m.is_added()),
+    );
+    state.radius.push(radius);
+    state.asleep.push(asleep);
+    if state.asleep.last().is_some_and(Option::is_some) {
+        Gathered::Asleep
+    } else {
+        Gathered::Awake
+    }
+}
+
+/// Checks one body's input and refreshes its mass properties when their inputs changed.
+fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
+    if let Some(error) = item.collider.error() {
+        return Err(format!("invalid collider: {error}"));
+    }
+    let t = &*item.transform;
+    if !within(t.translation.abs().max_element(), MAX_COORDINATE) {
+        return Err(format!(
+            "translation {} is not finite or beyond {MAX_COORDINATE:e} m",
+            t.translation
+        ));
+    }
+    let norm = t.rotation.length_squared();
+    if !(norm.is_finite() && norm >= 1e-12) {
+        return Err(format!(
+            "invalid rotation {} (a quaternion of finite, non-zero length is needed)",
+            t.rotation
+        ));
+    }
+    if kind != RigidBody::Static {
+        if let Some(v) = item.linear_velocity.as_deref() {
+            check_length("linear velocity", v.0, MAX_LINEAR_SPEED)?;
+        }
+        if let Some(w) = item.angular_velocity.as_deref() {
+            check_length("angular velocity", w.0, MAX_ANGULAR_SPEED)?;
+        }
+    }
+    if kind == RigidBody::Dynamic {
+        // `ComputedMass` is the plugin's own: written by anyone else (its change tick is newer
+        // than this system's last run, which is when the plugin last wrote it), it is
+        // recomputed like any stale value.
+        let written = item
+            .computed
+            .as_ref()
+            .is_some_and(|c| c.is_changed() && !c.is_added());
+        let changed = written
+            || item.computed.as_ref().is_some_and(|c| c.is_added())
+            || item.collider.is_changed()
+            || item.body.as_ref().is_some_and(|b| b.is_changed())
+            || item.mass.as_ref().is_some_and(|m| m.is_changed())
+            || item.density.as_ref().is_some_and(|d| d.is_changed())
+            || item.quarantined.is_some()
+            || item.computed.as_ref().is_none_or(|c| c.inverse_mass == 0.0);
+        if changed {
+            let density = item
+                .density
+                .as_deref()
+                .map_or(Density::default().0, |d| d.0);
+            let computed = ComputedMass::from_collider(
+                &item.collider,
+                density,
+                item.mass.as_deref().map(|m| m.0),
+            )?;
+            if let Some(mut c) = item.computed.take() {
+                if written && *c != computed {
+                    log::warn!(
+                        "impact3d: {} had its ComputedMass written ({:?}); it is read-only and \
+                         was recomputed from the collider, Density and Mass",
+                        body_label(item.entity, item.name),
+                        *c
+                    );
+                }
+                c.set_if_neq(computed);
+                item.computed = Some(c);
+            }
+        }
+        if item.computed.is_none() {
+            return Err("dynamic body has no ComputedMass component".to_string());
+        }
+    }
+    Ok(())
+}
+
+/// Warns, naming the entity, when a coefficient is set outside `[0, max]` or to NaN.
+fn warn_on_coefficient_change<T: std::ops::Deref<Target = f32> + Component>(
+    label: &dyn Fn() -> String,
+    value: Option<&Ref<T>>,
+    what: &str,
+    max: f32,
+) {
+    let Some(value) = value.filter(|v| v.is_changed()) else {
+        return;
+    };
+    let v = ***value;
+    if !(0.0..=max).contains(&v) {
+        log::warn!(
+            "impact3d: {} has {what} {v}, outside [0, {max}]; it is clamped to {}",
+            label(),
+            clamp_coefficient(Some(v), max)
+        );
+    }
+}
+
+/// Clamps a coefficient into `[0, max]`; NaN and missing become 0.
+fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
+    match value {
+        Some(v) if v.is_nan() => 0.0,
+        Some(v) => v.clamp(0.0, max),
+        None => 0.0,
+    }
+}

@@ -1,0 +1,129 @@
+//! Sleep: resting islands fall asleep, woken islands lose their marker.
+
+use bevy::prelude::*;
+
+use crate::collision::ContactPairs;
+use crate::dynamics::sleep::{SleepTimer, Sleeping, islands_to_sleep};
+use crate::dynamics::solver::Motion;
+use crate::dynamics::{AngularVelocity, LinearVelocity};
+use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+
+use super::PhysicsState;
+
+/// Adds [`update_sleep`] to [`PhysicsSystems::Sleep`].
+pub struct SleepPlugin;
+
+impl Plugin for SleepPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<PhysicsState>()
+            .add_systems(PhysicsSchedule, update_sleep.in_set(PhysicsSystems::Sleep));
+    }
+}
+
+/// Puts resting islands to sleep and wakes the islands woken in this step (see
+/// [`crate::dynamics::sleep`]): updates each awake dynamic body's [`SleepTimer`], groups
+/// touching bodies into islands, and marks every body of an island whose bodies have all been
+/// slow for the configured time, zeroing its velocities.
+pub fn update_sleep(
+    mut commands: Commands,
+    state: Res<PhysicsState>,
+    pairs: Res<ContactPairs>,
+    mut bodies: Query<(
+        Option<&mut SleepTimer>,
+        Option<&mut LinearVelocity>,
+        Option<&mut AngularVelocity>,
+    )>,
+    sleepers: Query<(Entity, &Sleeping)>,
+) {
+    let config = &state.settings.sleep;
+    if !config.enabled {
+        for (entity, _) in &sleepers {
+            commands.entity(entity).remove::<Sleeping>();
+        }
+        return;
+    }
+    let island_of = |entity: Entity, marker: &Sleeping| {
+        if marker.island == Entity::PLACEHOLDER {
+            entity
+        } else {
+            marker.island
+        }
+    };
+    let mut woken = state.woken.clone();
+    for &entity in &state.lost {
+        if let Ok((entity, marker)) = sleepers.get(entity) {
+            woken.push(island_of(entity, marker));
+        }
+    }
+    if !woken.is_empty() {
+        woken.sort_unstable();
+        woken.dedup();
+        let woken = |island: Entity| woken.binary_search(&island).is_ok();
+        // Every body of a woken island: those of the sleeping set (in the step or not), and
+        // the sleeping-marked ones read every step.
+        for s in state.sleepers.records() {
+            if woken(s.island) {
+                commands.entity(s.entity).remove::<Sleeping>();
+            }
+        }
+        for &entity in &state.read_every_step {
+            if let Ok((entity, marker)) = sleepers.get(entity)
+                && woken(island_of(entity, marker))
+            {
+                commands.entity(entity).remove::<Sleeping>();
+            }
+        }
+    }
+    let mut timers: Vec<Option<f32>> = vec![None; state.bodies.len()];
+    for (i, (body, slot)) in state.bodies.iter().zip(timers.iter_mut()).enumerate() {
+        if body.motion != Motion::Dynamic {
+            continue;
+        }
+        let Ok((Some(mut timer), _, _)) = bodies.get_mut(state.entities[i]) else {
+            continue;
+        };
+        let speed =
+            body.linear_velocity.length() + body.angular_velocity.length() * state.radius[i];
+        timer.0 = if speed < config.linear_threshold {
+            timer.0 + state.dt
+        } else {
+            0.0
+        };
+        *slot = Some(timer.0);
+    }
+    // Islands: touching pairs of dynamic bodies; a body touching a moving kinematic body stays
+    // awake (its island gets a member that never sleeps).
+    let moving = |i: usize| {
+        let b = &state.bodies[i];
+        b.motion == Motion::Kinematic
+            && (b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO)
+    };
+    let mut links = Vec::new();
+    for (pair, &(ia, ib)) in pairs.candidates().iter().zip(&state.candidate_indices) {
+        let (da, db) = (
+            state.bodies[ia].motion == Motion::Dynamic,
+            state.bodies[ib].motion == Motion::Dynamic,
+        );
+        if pair.touching && ((da && (db || moving(ib))) || (db && moving(ia))) {
+            links.push((ia as u32, ib as u32));
+        }
+    }
+    for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep)
+        .into_iter()
+        .enumerate()
+    {
+        let Some(root) = island else { continue };
+        let entity = state.entities[i];
+        if let Ok((_, linear, angular)) = bodies.get_mut(entity) {
+            if let Some(mut v) = linear {
+                v.0 = Vec3::ZERO;
+            }
+            if let Some(mut w) = angular {
+                w.0 = Vec3::ZERO;
+            }
+        }
+        commands.entity(entity).insert(Sleeping {
+            island: state.entities[root as usize],
+        });
+    }
+}

@@ -1,0 +1,261 @@
+//! The solve: the chosen method over the packed bodies and rows, continuous collision for the
+//! methods that need it, and the impulses stored back into the manifolds, with the step's
+//! impacts and touching transitions.
+
+use bevy::prelude::*;
+use parry3d::math::Pose;
+use parry3d::query::cast_shapes_nonlinear;
+use parry3d::shape::{Ball, Shape};
+
+use crate::collision::ContactPairs;
+use crate::collision::narrow_phase::{ContactImpulse, StepMotion};
+use crate::dynamics::solver::{self, Motion};
+use crate::dynamics::{ImpactMessages, SolverStats};
+use crate::messages::Impact;
+use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+
+use super::PhysicsState;
+
+use super::narrow_phase::Turning;
+
+/// Adds [`solve_contacts`] to [`PhysicsSystems::Solve`].
+pub struct SolvePlugin;
+
+impl Plugin for SolvePlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<PhysicsState>().add_systems(
+            PhysicsSchedule,
+            solve_contacts.in_set(PhysicsSystems::Solve),
+        );
+    }
+}
+
+/// Continuous collision after the solve (as Box2D v3's `b2SolveContinuous`): a dynamic body
+/// whose solved motion over the step is longer than the contact margin is swept from its start
+/// pose to its end pose against each of its broad-phase pairs (parry's nonlinear shape cast).
+/// If it would first touch one more than `linear_slop` before the end of its sweep, it is put
+/// back at the pose of that first touch, keeping its velocities: the next step's contact
+/// resolves them. A body already touching at the start, or paired with a turning kinematic
+/// body, is swept by its centre of mass alone (a point), so that at least its centre never
+/// passes through. Bodies the solver stopped in time, slow bodies and resting contacts are
+/// untouched.
+///
+/// Why: the solvers resolve each contact with the geometry of the start of the step. A body
+/// that turns through several radians within the step (a box at 1e3 rad/s: 2.7 turns per
+/// step at 60 Hz) meets the wall in a pose the start geometry does not describe, and every
+/// method but the hybrid one, which resolves impacts one at a time at their time of impact,
+/// let such a body through.
+fn stop_at_first_impact(state: &mut PhysicsState) {
+    let dt = state.dt;
+    let margin = state.settings.config.contact_margin;
+    let slop = state.settings.config.linear_slop;
+    let n = state.bodies.len();
+    // The solved motion of each body as a rigid motion from its start pose: the centre of
+    // mass moves in a straight line to where the solve put it, and the body turns at its
+    // solved angular velocity (or along the shortest arc to its end rotation, for turns under
+    // a radian, which then reproduces the end pose exactly).
+    let motion = |i: usize| {
+        let body = &state.bodies[i];
+        let start = state.poses[i];
+        let com0 = start.transform_point(state.local_com[i]);
+        let linear = (body.position - com0) / dt;
+        let turn = (body.rotation * start.rotation.inverse()).to_scaled_axis();
+        let angular = if turn.length() < 1.0 && body.angular_velocity.length() * dt < 1.0 {
+            turn / dt
+        } else {
+            body.angular_velocity
+        };
+        let sweep = (body.position - com0).length() + angular.length() * dt * state.radius[i];
+        (
+            StepMotion {
+                pose: start,
+                local_center: state.local_com[i],
+                linear,
+                angular,
+                spin_reach: 0.0,
+            },
+            sweep,
+        )
+    };
+    let fast = |i: usize| {
+        state.bodies[i].motion == Motion::Dynamic
+            && state.asleep[i].is_none()
+            && motion(i).1 > margin
+    };
+    let mut first: Vec<f32> = Vec::new();
+    for (k, &(ia, ib)) in state.candidate_indices.iter().enumerate() {
+        if state.dormant[k] || !(fast(ia) || fast(ib)) {
+            continue;
+        }
+        if first.is_empty() {
+            first.resize(n, dt);
+        }
+        let (ma, sweep_a) = motion(ia);
+        let (mb, sweep_b) = motion(ib);
+        let (sa, sb) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
+        let hit = |a: &StepMotion, sa: &dyn Shape, b: &StepMotion, sb: &dyn Shape| {
+            let (a, b) = (a.nonlinear(), b.nonlinear());
+            cast_shapes_nonlinear(&a, sa, &b, sb, 0.0, dt, false)
+                .ok()
+                .flatten()
+                .map(|h| h.time_of_impact)
+        };
+        // A pair of a dynamic body and a turning kinematic body (see `Turning`) is solved with
+        // the kinematic body's prescribed motion (its faces' contacts carried to its end-of-step
+        // pose, its other anchors turned exactly), not with the start geometry this rewind makes
+        // up for. Their straight solved paths can still graze mid-step (a ball pushed by a
+        // kinematic bar turning at 6 rad/s, its path a chord of the face's arc, dips about 1 mm
+        // into it), which a sweep of the whole shapes takes for a first impact: the ball was put
+        // back where it started while the bar moved on, and the bar sank 9.9 cm into it under
+        // the soft step. Such a pair is swept by the fast body's centre, as a pair touching at
+        // the start.
+        let carried = Turning::sides(state, ia, ib).is_some();
+        let t = match hit(&ma, sa, &mb, sb) {
+            Some(t) if t > 0.0 && !carried => Some(t),
+            Some(_) => {
+                // Touching at the start, or carried: sweep the fast body's centre (a point)
+                // instead.
+                let point = Ball::new(0.0);
+                let centre = |m: &StepMotion| StepMotion {
+                    pose: Pose::from_parts(m.pose.transform_point(m.local_center), m.pose.rotation),
+                    local_center: Vec3::ZERO,
+                    ..*m
+                };
+                if fast(ia) {
+                    hit(&centre(&ma), &point, &mb, sb).filter(|&t| t > 0.0)
+                } else {
+                    hit(&ma, sa, &centre(&mb), &point).filter(|&t| t > 0.0)
+                }
+            }
+            None => None,
+        };
+        let Some(t) = t else { continue };
+        for (i, sweep) in [(ia, sweep_a), (ib, sweep_b)] {
+            if fast(i) && (1.0 - t / dt) * sweep > slop {
+                first[i] = first[i].min(t);
+            }
+        }
+    }
+    let poses: Vec<(usize, Pose)> = first
+        .iter()
+        .enumerate()
+        .filter(|&(_, &t)| t < dt)
+        .map(|(i, &t)| (i, motion(i).0.pose_at(t)))
+        .collect();
+    let gravity = state.settings.gravity.0;
+    for (i, pose) in poses {
+        let body = &mut state.bodies[i];
+        let position = pose.transform_point(state.local_com[i]);
+        // Moved back along its path, the body may stand higher than where the solve left it:
+        // the potential energy it gains, `-m g . dx`, is taken from its kinetic energy (its
+        // speed is scaled down), so the correction never adds energy. Without this, bodies
+        // rewound after falling fast gained up to 22% of a world's energy in a step (the
+        // energy property test).
+        let gained = -gravity.dot(position - body.position) / body.inverse_mass;
+        let kinetic = 0.5 * body.linear_velocity.length_squared() / body.inverse_mass;
+        if gained > 0.0 && kinetic > 0.0 {
+            body.linear_velocity *= ((kinetic - gained).max(0.0) / kinetic).sqrt();
+        }
+        // Turned back, the body keeps its spin in its own frame, so that its rotational energy
+        // `w . I w / 2` is what the solve left. (Turning it under a fixed world spin changes
+        // that energy when the inertia is not isotropic: a 2 kg hull that an e = 1 impact on the
+        // trimesh had set spinning gained 130 J, 29% of its world's energy, in one rewind:
+        // the energy property test, propagation, seed 107.)
+        let rotation = pose.rotation.normalize();
+        if !body.isotropic && !body.locked_rotation.any() {
+            let back = rotation * body.rotation.inverse();
+            body.angular_velocity = back * body.angular_velocity;
+        }
+        body.position = position;
+        body.rotation = rotation;
+    }
+}
+
+/// Runs the solver over the packed arrays and stores the impulses back into the manifolds.
+pub fn solve_contacts(
+    mut stats: ResMut<SolverStats>,
+    mut state: ResMut<PhysicsState>,
+    mut pairs: ResMut<ContactPairs>,
+) {
+    let state = &mut *state;
+    let config = &state.settings.config;
+    *stats = solver::step(
+        &mut state.bodies,
+        &mut state.contacts,
+        &state.pair_ranges,
+        config,
+        state.settings.gravity.0,
+        state.dt,
+    );
+    // The hybrid method resolves impacts one at a time at their time of impact, on contacts
+    // generated at the time-of-impact poses, so its bodies already stop where they first touch
+    // (a box spinning at 1e3 rad/s stops at a thin wall without the rewind): only the other
+    // methods, which solve every contact with the geometry of the start of the step, need it.
+    // The rewind is not free: it moves bodies without the solver's knowledge, and in the
+    // energy property test it was what raised the energy of 9 of the hybrid's 10 failing
+    // worlds.
+    if state.settings.config.method != solver::SolverMethod::Hybrid {
+        stop_at_first_impact(state);
+    }
+    let config = &state.settings.config;
+    state.steps_since_bound_warning = state.steps_since_bound_warning.saturating_add(1);
+    if stats.propagation_bound_hit && state.steps_since_bound_warning >= 60 {
+        state.steps_since_bound_warning = 0;
+        log::warn!(
+            "impact3d: propagation stopped at its bound of {} sweeps with contacts still \
+             approaching (raise SolverConfig::max_propagation_sweeps)",
+            config.max_propagation_sweeps
+        );
+    }
+
+    let pairs = pairs.pairs_mut();
+    // Dormant pairs keep their touching state; the others are re-evaluated from this step.
+    let mut touching: Vec<bool> = pairs
+        .iter()
+        .zip(&state.dormant)
+        .map(|(pair, &dormant)| dormant && pair.touching)
+        .collect();
+    state.impacts.clear();
+    for (c, &(p, m, k)) in state.contacts.iter().zip(&state.contact_keys) {
+        let pair = &mut pairs[p as usize];
+        // A non-finite impulse (its bodies' results are non-finite too, and they are
+        // quarantined in `write_back`) is not carried over: warm-started, it would make the
+        // next step non-finite again, and the quarantine would never end.
+        let finite = c.normal_impulse.is_finite()
+            && c.tangent_impulse[0].is_finite()
+            && c.tangent_impulse[1].is_finite();
+        pair.manifolds[m as usize].points[k as usize].data = if finite {
+            ContactImpulse {
+                normal: c.normal_impulse,
+                tangent: c.tangent_impulse,
+            }
+        } else {
+            ContactImpulse::default()
+        };
+        if c.separation <= state.settings.touch_distance || c.total_impulse > 0.0 {
+            touching[p as usize] = true;
+        }
+        let report = match config.impact_messages {
+            ImpactMessages::Off => false,
+            ImpactMessages::Impacts => c.impact,
+            ImpactMessages::AllContacts => c.total_impulse > 0.0,
+        };
+        if report {
+            state.impacts.push(Impact {
+                a: pair.a,
+                b: pair.b,
+                point: c.point,
+                normal: c.normal,
+                impulse: c.total_impulse,
+            });
+        }
+    }
+    for (pair, now) in pairs.iter_mut().zip(touching) {
+        match (pair.touching, now) {
+            (false, true) => state.started.push((pair.a, pair.b)),
+            (true, false) => state.ended.push((pair.a, pair.b)),
+            _ => {}
+        }
+        pair.touching = now;
+    }
+}
