@@ -55,10 +55,13 @@ pub const DEFAULT_DT: f32 = 1.0 / 64.0;
 /// The world's length unit, m: how long "one" is for the plugin's absolute lengths and speeds.
 /// The contact margin, the linear slop, the touch distance and every speed threshold
 /// ([`SolverConfig`]'s `velocity_tolerance`, `restitution_threshold`, `max_push_out_speed`
-/// and [`SleepConfig::linear_threshold`]) are multiplied by it. Default 1 (a world of objects
-/// around a metre); set it to the size of a typical object, e.g. `PhysicsLengthUnit(1e-3)` for
-/// a world of millimetre dice (as avian's `PhysicsLengthUnit`). Valid: finite, in
-/// `[1e-6, 1e6]`; an invalid value is logged once and the last good one is used.
+/// and [`SleepConfig::linear_threshold`]) are multiplied by it, and contacts are generated with
+/// the shapes scaled to the power of two nearest it (see
+/// [`ContactPair::update`](crate::collision::narrow_phase::ContactPair::update)). Default 1 (a
+/// world of objects around a metre); set it to the size of a typical object, e.g.
+/// `PhysicsLengthUnit(1e-3)` for a world of millimetre dice (as avian's `PhysicsLengthUnit`).
+/// Valid: finite, in `[1e-6, 1e6]`; an invalid value is logged once and the last good one is
+/// used.
 ///
 /// # Examples
 ///

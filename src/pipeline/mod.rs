@@ -29,7 +29,7 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
-use crate::collision::narrow_phase::TOUCH_DISTANCE;
+use crate::collision::narrow_phase::{TOUCH_DISTANCE, UnitShapes};
 use crate::dynamics::sleep::{SleepConfig, SleepingSet};
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
@@ -104,6 +104,8 @@ pub struct PhysicsState {
     read_every_step: Vec<Entity>,
     /// Steps since the propagation bound warning was last logged.
     steps_since_bound_warning: u32,
+    /// The shapes scaled to the length unit, for contact generation.
+    unit_shapes: UnitShapes,
     /// The settings of this step, validated (see [`validate_settings`]) and with lengths and
     /// speeds scaled by the length unit: the stages read these, never the resources, so the
     /// solver only sees valid values.

@@ -7,7 +7,9 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 
 use crate::collision::ContactPairs;
-use crate::collision::narrow_phase::{ContactImpulse, Meeting, StepMotion, time_of_impact};
+use crate::collision::narrow_phase::{
+    ContactImpulse, Meeting, StepMotion, binary_unit, time_of_impact,
+};
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
@@ -43,6 +45,10 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
     state.contacts.clear();
     state.pair_ranges.clear();
     state.contact_keys.clear();
+    // Contacts are generated with the shapes scaled to the length unit (see
+    // `ContactPair::update`); a pair with a shape parry cannot scale keeps metres.
+    let unit = binary_unit(state.settings.length_unit);
+    let mut unit_shapes = std::mem::take(&mut state.unit_shapes);
     for (pair_index, (pair, &(ia, ib))) in pairs
         .pairs_mut()
         .iter_mut()
@@ -56,6 +62,17 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
         let reach = state.reach[ia] + state.reach[ib];
         let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
         let (shape_a, shape_b) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
+        let scaled = if unit == 1.0 {
+            None
+        } else {
+            unit_shapes
+                .get(&state.shapes[ia], unit)
+                .zip(unit_shapes.get(&state.shapes[ib], unit))
+        };
+        let (unit_a, unit_b, pair_unit) = match &scaled {
+            Some((a, b)) => (a.as_ref(), b.as_ref(), unit),
+            None => (shape_a, shape_b, 1.0),
+        };
         // Speculative contacts (a prediction wider than the margin) only for pairs that really
         // meet within the step: a near miss of fast bodies is a miss (no ghost collision).
         // Gravity bends a path by at most |g| dt^2 / 2 from the straight line the cast follows.
@@ -105,7 +122,7 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
             // rotation), with its points mapped back to where they are at the start and a
             // separation that the approach velocity there closes exactly at the impact time.
             let (toi_a, toi_b) = (motion_a.pose_at(t), motion_b.pose_at(t));
-            if !pair.update(&toi_a, shape_a, &toi_b, shape_b, margin) {
+            if !pair.update(&toi_a, unit_a, &toi_b, unit_b, margin, pair_unit) {
                 pair.manifolds.clear();
                 continue;
             }
@@ -160,7 +177,7 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
             close_pair_range(&state.contacts, &mut state.pair_ranges, start);
             continue;
         }
-        if !pair.update(pose_a, shape_a, pose_b, shape_b, prediction) {
+        if !pair.update(pose_a, unit_a, pose_b, unit_b, prediction, pair_unit) {
             pair.manifolds.clear();
             continue;
         }
@@ -181,6 +198,8 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
         }
         close_pair_range(&state.contacts, &mut state.pair_ranges, start);
     }
+    unit_shapes.prune();
+    state.unit_shapes = unit_shapes;
 }
 
 /// A kinematic body that turns, in a pair with a dynamic body, and its prescribed motion over

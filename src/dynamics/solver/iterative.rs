@@ -437,9 +437,15 @@ pub const TILT_MARGIN: f32 = 4.0;
 /// `v' + b + (K/a2) lambda' = 0`: the manifold sinks by the predictable
 /// `W K_mean / (2 pi f)^2` under a load `W`. The tilt modes carry no regularisation, so they
 /// are rigid: any load distribution is taken without tilting, and differences in penetration
-/// are pushed out at the soft rate. With one point it is Box2D's soft row exactly; speculative
-/// points (`s > 0`) are rigid rows that may close the gap, as in [`soft_sweep`]. The
-/// Gauss-Seidel update of row `i` is
+/// are pushed out at the soft rate. With one point it is Box2D's soft row exactly. Speculative
+/// points (`s > 0`) of a manifold none of whose points penetrates are rigid rows that may close
+/// the gap, as in [`soft_sweep`]; in a manifold that penetrates they are points of the same
+/// soft plane, in the sum and with their gap `s/h` as bias, so that they close against the
+/// plane as it sinks (the block's rows then change continuously as a point's separation
+/// crosses zero). Why: held at its gap, a point a hair apart (a rounding's 1e-10 m at 1 mm)
+/// is a hinge while the other points sink at the soft rate, and the body turns about it: a
+/// 1 mm die landed on another turned 1e-2 rad in one step (the soft sink, 0.28 mm, is a
+/// quarter of its size). The Gauss-Seidel update of row `i` is
 ///
 /// ```text
 /// delta_i = -(v_i + b_i + c * sum_j lambda_j) / (K_ii + c).
@@ -755,6 +761,19 @@ fn solve_block(
             total += c.normal_impulse;
         }
         rows.push(Some(row));
+    }
+    // A manifold that penetrates is one soft plane: its speculative points (`s > 0`) are soft
+    // rows too, with their gap `s/h` as bias, so that they close against the plane as it
+    // sinks. See `manifold_sweep`.
+    if count > 0 {
+        for (c, row) in group.iter().zip(rows.iter_mut()) {
+            if let Some((_, soft)) = row
+                && !*soft
+            {
+                *soft = true;
+                total += c.normal_impulse;
+            }
+        }
     }
     // With friction, each penetrating point is its own soft row, Box2D's, with the stiffness of
     // its share of the load the block carries (`load / N`), or of its own effective mass where
@@ -1097,5 +1116,61 @@ mod tests {
         let a2 = soft.mass_scale / soft.impulse_scale;
         let residual = v[0] + soft.bias_rate * -0.01 + total / a2;
         assert!(residual.abs() <= 1e-4, "{residual}");
+    }
+
+    /// A face manifold with three corners touching (`s = 0`) and the fourth a hair apart
+    /// (`s = 1e-6` m, 16 ulps of the 0.5 m anchors of this 1 m box), carrying the weight of a
+    /// 1 kg box that lands at `g h` (0.041 m/s), sinks as one plane: the plane sinks 13 um in
+    /// the substep, far past the hair, so the fourth corner sinks with the others, only
+    /// faster by its gap's `s/h` (2.4e-4 m/s), and the box hardly turns. Measured: corner
+    /// velocities within 1.2e-4 m/s of each other, the box turning at 9.5e-5 rad/s; bounds
+    /// `s/h` plus the block tolerance (1e-4 m/s), and 2e-4 rad/s (that spread over the 1.4 m
+    /// diagonal, with margin). Before, the corner a hair apart was a rigid row held at its gap
+    /// while the other three sank at the soft rate: a hinge, corner velocities 1.4e-3 m/s apart
+    /// and the box turning at 9.7e-4 rad/s. The soft sink is a fixed 0.28 mm whatever the
+    /// size, so such a hinge tilts a small body the more: a 1 mm die landed on another turned
+    /// 1e-2 rad in one step (corners 1e-10 m apart, at 1 mm 2 ulps).
+    #[test]
+    fn manifold_block_corner_a_hair_apart_sinks_with_the_rest() {
+        use crate::dynamics::solver::body::Motion;
+        use crate::dynamics::solver::contact::prepare_contacts;
+        use bevy::math::{BVec3, Mat3, Quat};
+        let soft = Softness::new(30.0, 10.0, 1.0 / 240.0);
+        let mut bodies = vec![
+            SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+            SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.5, 0.0), Quat::IDENTITY)
+                .with_mass(
+                    1.0,
+                    Mat3::from_diagonal(Vec3::splat(6.0)),
+                    true,
+                    BVec3::FALSE,
+                )
+                .with_velocity(Vec3::new(0.0, -9.81 / 240.0, 0.0), Vec3::ZERO),
+        ];
+        let gap = 1e-6;
+        let corners = [
+            (0.5, 0.5, gap),
+            (0.5, -0.5, 0.0),
+            (-0.5, 0.5, 0.0),
+            (-0.5, -0.5, 0.0),
+        ];
+        let mut contacts: Vec<_> = corners
+            .into_iter()
+            .map(|(x, z, s)| {
+                ContactConstraint::new(0, 1, Vec3::new(x, 0.0, z), Vec3::Y, s, 0.0, 0.0)
+            })
+            .collect();
+        prepare_contacts(&bodies, &mut contacts);
+        sweep_one_block(&mut bodies, &mut contacts, soft, 1e-7);
+        let v: Vec<f32> = contacts
+            .iter()
+            .map(|c| c.normal_velocity(&bodies))
+            .collect();
+        let spread =
+            v.iter().fold(f32::MIN, |m, &x| m.max(x)) - v.iter().fold(f32::MAX, |m, &x| m.min(x));
+        assert!(spread <= gap * 240.0 + 1e-4, "{v:?}");
+        assert!(v.iter().all(|&x| x < -1e-3), "the plane sinks: {v:?}");
+        let w = bodies[1].angular_velocity.length();
+        assert!(w <= 2e-4, "turned at {w} rad/s");
     }
 }
