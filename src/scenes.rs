@@ -242,7 +242,7 @@ pub fn resting_box(world: &mut World, e: f32) -> (Entity, Entity) {
 }
 
 /// Case 12: a vertical stack of `n` 1 m cubes of 1 kg each, resting on the ground (default
-/// gravity), frictionless. Returns the cubes, bottom first. (A [`column`] of equal masses.)
+/// gravity), frictionless. Returns the cubes, bottom first. (A [`column`](fn@column) of equal masses.)
 pub fn stack(world: &mut World, n: usize) -> Vec<Entity> {
     column(world, n, 0.0, 1.0)
 }

@@ -8,23 +8,29 @@ use crate::collision::broad_phase::pairs_with_active;
 use crate::dynamics::solver::Motion;
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::{PhysicsState, bring_in_overlapped, mark_awake_active, wake_islands};
+use super::{CandidatePairs, PhysicsState, bring_in_overlapped, mark_awake_active, wake_islands};
 
 /// Adds [`update_broad_phase`] to [`PhysicsSystems::BroadPhase`].
 pub struct BroadPhasePlugin;
 
 impl Plugin for BroadPhasePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>().add_systems(
-            PhysicsSchedule,
-            update_broad_phase.in_set(PhysicsSystems::BroadPhase),
-        );
+        app.init_resource::<PhysicsState>()
+            .init_resource::<CandidatePairs>()
+            .add_systems(
+                PhysicsSchedule,
+                update_broad_phase.in_set(PhysicsSystems::BroadPhase),
+            );
     }
 }
 
 /// Finds candidate pairs by sweep and prune, keeping only pairs where at least one body is
 /// dynamic.
-pub fn update_broad_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<ContactPairs>) {
+pub fn update_broad_phase(
+    mut state: ResMut<PhysicsState>,
+    mut pairs: ResMut<ContactPairs>,
+    mut candidates: ResMut<CandidatePairs>,
+) {
     let state = &mut *state;
     // An awake body (dynamic, or kinematic and moving) overlapping a sleeping one wakes its
     // island now, so that the contact is solved with the sleeper's real mass; repeat until no
@@ -126,33 +132,12 @@ pub fn update_broad_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Con
             pairs.set_aside(&aside);
         }
     }
-    let mut keyed: Vec<((Entity, Entity), (usize, usize))> = state
-        .index_pairs
-        .iter()
-        .map(|&(i, j)| (i as usize, j as usize))
-        .filter(|&(i, j)| {
-            // Pairs with a sleeping body are kept (dormant), so sleep does not end collisions.
-            let live =
-                |k: usize| state.bodies[k].motion == Motion::Dynamic || state.asleep[k].is_some();
-            live(i) || live(j)
-        })
-        .map(|(i, j)| {
-            let (ei, ej) = (state.entities[i], state.entities[j]);
-            if ei < ej {
-                ((ei, ej), (i, j))
-            } else {
-                ((ej, ei), (j, i))
-            }
-        })
-        .collect();
-    keyed.sort_unstable_by_key(|(k, _)| *k);
-    state.candidates.clear();
-    state.candidate_indices.clear();
-    state.dormant.clear();
-    for (k, (i, j)) in keyed {
-        state.candidates.push(k);
-        state.candidate_indices.push((i, j));
-        let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
-        state.dormant.push(!awake(i) && !awake(j));
-    }
+    let state: &PhysicsState = state;
+    candidates.set(
+        state,
+        state
+            .index_pairs
+            .iter()
+            .map(|&(i, j)| (i as usize, j as usize)),
+    );
 }

@@ -5,14 +5,14 @@ use bevy::prelude::*;
 use crate::messages::{CollisionEnded, CollisionStarted, Impact};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::PhysicsState;
+use super::StepEvents;
 
 /// Adds [`send_messages`] to [`PhysicsSystems::Messages`].
 pub struct MessagesPlugin;
 
 impl Plugin for MessagesPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>().add_systems(
+        app.init_resource::<StepEvents>().add_systems(
             PhysicsSchedule,
             send_messages.in_set(PhysicsSystems::Messages),
         );
@@ -21,12 +21,12 @@ impl Plugin for MessagesPlugin {
 
 /// Writes the step's `Impact`, `CollisionStarted` and `CollisionEnded` messages.
 pub fn send_messages(
-    state: Res<PhysicsState>,
+    events: Res<StepEvents>,
     mut impacts: MessageWriter<Impact>,
     mut started: MessageWriter<CollisionStarted>,
     mut ended: MessageWriter<CollisionEnded>,
 ) {
-    impacts.write_batch(state.impacts.iter().copied());
-    started.write_batch(state.started.iter().map(|&(a, b)| CollisionStarted(a, b)));
-    ended.write_batch(state.ended.iter().map(|&(a, b)| CollisionEnded(a, b)));
+    impacts.write_batch(events.impacts.iter().copied());
+    started.write_batch(events.started.iter().map(|&(a, b)| CollisionStarted(a, b)));
+    ended.write_batch(events.ended.iter().map(|&(a, b)| CollisionEnded(a, b)));
 }

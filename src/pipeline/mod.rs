@@ -3,9 +3,14 @@
 //! [`messages`]. Each stage is a thin gather and scatter around the plain functions of
 //! [`crate::collision`] and [`crate::dynamics`], and has its own plugin adding its system to its
 //! [`PhysicsSystems`](crate::schedule::PhysicsSystems) set, so a stage can be left out or
-//! replaced in [`PhysicsPlugins`](crate::PhysicsPlugins). The stages share the packed arrays of
-//! the step in [`PhysicsState`]. Nothing in `collision`, `dynamics` or `schedule` imports this
-//! module.
+//! replaced in [`PhysicsPlugins`](crate::PhysicsPlugins). What a stage writes is a resource of
+//! its own, readable from outside the crate: the bodies of the step in [`PhysicsState`]
+//! (prepare), the overlapping pairs in [`CandidatePairs`] (broad phase), the contact rows in
+//! [`ContactRows`] (narrow phase, impulses from the solve), the step's events in
+//! [`StepEvents`] (narrow phase and solve). A replacement broad phase reads the bodies' boxes
+//! and ends with [`CandidatePairs::set`] (`tests/replace_stage.rs` swaps in an all-pairs one
+//! and gets bit-identical results). Nothing in `collision`, `dynamics` or `schedule` imports
+//! this module.
 
 pub mod broad_phase;
 pub mod messages;
@@ -36,7 +41,8 @@ use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
 use crate::dynamics::{Gravity, SolverConfig};
 use crate::messages::Impact;
 
-/// The packed arrays of the current step, gathered once and shared by the stages.
+/// The bodies of the current step, packed by the prepare stage (and the sleeping bodies the
+/// broad phase wakes), with the settings of the step and the bookkeeping of sleeping bodies.
 #[derive(Resource, Default)]
 pub struct PhysicsState {
     /// Step length, s.
@@ -66,20 +72,6 @@ pub struct PhysicsState {
     index_of: Vec<(Entity, u32)>,
     index_pairs: Vec<(u32, u32)>,
     sort_scratch: Vec<u32>,
-    /// Broad-phase pairs as entities `(a, b)`, `a < b`, sorted, with their body indices.
-    candidates: Vec<(Entity, Entity)>,
-    candidate_indices: Vec<(usize, usize)>,
-    /// Per candidate: neither body is awake and dynamic (a sleeping body with a sleeping or
-    /// static one), so the pair keeps its manifolds and touching state without a narrow phase.
-    dormant: Vec<bool>,
-    contacts: Vec<ContactConstraint>,
-    /// Contact index ranges of one body pair each.
-    pair_ranges: Vec<Range<usize>>,
-    /// For each contact: (pair, manifold, point) in [`ContactPairs`].
-    contact_keys: Vec<(u32, u32, u32)>,
-    impacts: Vec<Impact>,
-    started: Vec<(Entity, Entity)>,
-    ended: Vec<(Entity, Entity)>,
     /// Bounding radius of each body about its centre of mass, m.
     radius: Vec<f32>,
     /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
@@ -116,6 +108,161 @@ pub struct PhysicsState {
     /// The messages about invalid settings logged in the last step: a message is logged when
     /// it first appears, not again while the same bad value stays.
     settings_reported: Vec<String>,
+}
+
+impl PhysicsState {
+    /// Step length of the current step, s.
+    pub fn dt(&self) -> f32 {
+        self.dt
+    }
+
+    /// The entity of each body in the step; a body's index in the step is its index here.
+    pub fn entities(&self) -> &[Entity] {
+        &self.entities
+    }
+
+    /// The solver bodies of the step, in the order of [`entities`](Self::entities): as the
+    /// prepare stage packed them until the solve, as the solve left them after it.
+    pub fn bodies(&self) -> &[SolverBody] {
+        &self.bodies
+    }
+
+    /// Each body's bounding box for the broad phase: its collider's box at the start of the
+    /// step, swept along its motion over the step and widened by the contact margin.
+    pub fn aabbs(&self) -> &[parry3d::bounding_volume::Aabb] {
+        &self.aabbs
+    }
+
+    /// Whether each body can have gained or lost an overlap since the last step (awake,
+    /// kinematic, or changed): a broad phase pairs every active body with every body whose box
+    /// its box overlaps; pairs of two inactive bodies carry over from the last step.
+    pub fn active(&self) -> &[bool] {
+        &self.active
+    }
+
+    /// Body `k` takes part in contacts: dynamic, or asleep (a sleeping body's pairs are kept, so
+    /// sleep does not end collisions).
+    fn live(&self, k: usize) -> bool {
+        self.bodies[k].motion == Motion::Dynamic || self.asleep[k].is_some()
+    }
+}
+
+/// The broad phase's output: the body pairs whose boxes overlap, for the narrow phase.
+#[derive(Resource, Default)]
+pub struct CandidatePairs {
+    /// The pairs as entities `(a, b)`, `a < b`, sorted.
+    pairs: Vec<(Entity, Entity)>,
+    /// Each pair's body indices in [`PhysicsState::entities`], in the order of `(a, b)`.
+    indices: Vec<(usize, usize)>,
+    /// Per pair: neither body is awake and dynamic (a sleeping body with a sleeping or static
+    /// one), so the pair keeps its manifolds and touching state without a narrow phase.
+    dormant: Vec<bool>,
+}
+
+impl CandidatePairs {
+    /// The pairs as entities `(a, b)`, `a < b`, sorted.
+    pub fn pairs(&self) -> &[(Entity, Entity)] {
+        &self.pairs
+    }
+
+    /// Each pair's body indices in [`PhysicsState::entities`], in the order of its entities.
+    pub fn indices(&self) -> &[(usize, usize)] {
+        &self.indices
+    }
+
+    /// Per pair: neither body is awake and dynamic, so the pair keeps its manifolds and
+    /// touching state without a narrow phase.
+    pub fn dormant(&self) -> &[bool] {
+        &self.dormant
+    }
+
+    /// Sets the candidates from overlapping body index pairs of `state` (each pair once, in
+    /// any order and either way round): keeps the pairs with a dynamic or sleeping body, and
+    /// sorts them by entity. What a broad phase, the built-in one or a replacement, ends
+    /// with.
+    pub fn set(
+        &mut self,
+        state: &PhysicsState,
+        overlapping: impl IntoIterator<Item = (usize, usize)>,
+    ) {
+        let mut keyed: Vec<((Entity, Entity), (usize, usize))> = overlapping
+            .into_iter()
+            .filter(|&(i, j)| state.live(i) || state.live(j))
+            .map(|(i, j)| {
+                let (ei, ej) = (state.entities[i], state.entities[j]);
+                if ei < ej {
+                    ((ei, ej), (i, j))
+                } else {
+                    ((ej, ei), (j, i))
+                }
+            })
+            .collect();
+        keyed.sort_unstable_by_key(|(k, _)| *k);
+        self.pairs.clear();
+        self.indices.clear();
+        self.dormant.clear();
+        for (k, (i, j)) in keyed {
+            self.pairs.push(k);
+            self.indices.push((i, j));
+            let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
+            self.dormant.push(!awake(i) && !awake(j));
+        }
+    }
+}
+
+/// The narrow phase's output: one contact row per contact point of the candidate pairs, with
+/// the impulses the solve leaves in them.
+#[derive(Resource, Default)]
+pub struct ContactRows {
+    contacts: Vec<ContactConstraint>,
+    /// Contact index ranges of one body pair each.
+    pair_ranges: Vec<Range<usize>>,
+    /// For each contact: (pair, manifold, point) in [`ContactPairs`](crate::collision::ContactPairs).
+    keys: Vec<(u32, u32, u32)>,
+}
+
+impl ContactRows {
+    /// The rows of the step: prepared by the narrow phase, with their impulses after the solve.
+    pub fn contacts(&self) -> &[ContactConstraint] {
+        &self.contacts
+    }
+
+    /// The rows of each body pair, as ranges of [`contacts`](Self::contacts).
+    pub fn pair_ranges(&self) -> &[Range<usize>] {
+        &self.pair_ranges
+    }
+
+    /// For each row: its (candidate pair, manifold, point) in
+    /// [`ContactPairs`](crate::collision::ContactPairs).
+    pub fn keys(&self) -> &[(u32, u32, u32)] {
+        &self.keys
+    }
+}
+
+/// What happened in the step, as the messages stage sends it.
+#[derive(Resource, Default)]
+pub struct StepEvents {
+    impacts: Vec<Impact>,
+    started: Vec<(Entity, Entity)>,
+    ended: Vec<(Entity, Entity)>,
+}
+
+impl StepEvents {
+    /// The contacts that count as impacts (see
+    /// [`SolverConfig::impact_messages`](crate::dynamics::SolverConfig::impact_messages)).
+    pub fn impacts(&self) -> &[Impact] {
+        &self.impacts
+    }
+
+    /// Pairs that started touching in the step.
+    pub fn started(&self) -> &[(Entity, Entity)] {
+        &self.started
+    }
+
+    /// Pairs that stopped touching in the step (or lost a body).
+    pub fn ended(&self) -> &[(Entity, Entity)] {
+        &self.ended
+    }
 }
 
 /// The validated settings of one step.

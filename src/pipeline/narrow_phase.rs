@@ -13,38 +13,49 @@ use crate::collision::narrow_phase::{
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::PhysicsState;
+use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents};
 
 /// Adds [`update_narrow_phase`] to [`PhysicsSystems::NarrowPhase`].
 pub struct NarrowPhasePlugin;
 
 impl Plugin for NarrowPhasePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>().add_systems(
-            PhysicsSchedule,
-            update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
-        );
+        app.init_resource::<PhysicsState>()
+            .init_resource::<CandidatePairs>()
+            .init_resource::<ContactRows>()
+            .init_resource::<StepEvents>()
+            .add_systems(
+                PhysicsSchedule,
+                update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
+            );
     }
 }
 
 /// Updates the persistent contact pairs and builds one contact constraint per contact point,
 /// carrying each point's impulses from the last step.
-pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<ContactPairs>) {
+pub fn update_narrow_phase(
+    mut state: ResMut<PhysicsState>,
+    mut pairs: ResMut<ContactPairs>,
+    candidates: Res<CandidatePairs>,
+    mut rows: ResMut<ContactRows>,
+    mut events: ResMut<StepEvents>,
+) {
     let state = &mut *state;
     let config = &state.settings.config;
-    state.ended.clear();
-    state.started.clear();
+    let rows = &mut *rows;
+    events.ended.clear();
+    events.started.clear();
     state.lost.clear();
-    let (ended, lost) = (&mut state.ended, &mut state.lost);
-    pairs.retain_candidates(&state.candidates, |p| {
+    let (ended, lost) = (&mut events.ended, &mut state.lost);
+    pairs.retain_candidates(&candidates.pairs, |p| {
         if p.touching {
             ended.push((p.a, p.b));
             lost.extend([p.a, p.b]);
         }
     });
-    state.contacts.clear();
-    state.pair_ranges.clear();
-    state.contact_keys.clear();
+    rows.contacts.clear();
+    rows.pair_ranges.clear();
+    rows.keys.clear();
     // Contacts are generated with the shapes scaled to the length unit (see
     // `ContactPair::update`); a pair with a shape parry cannot scale keeps metres.
     let unit = binary_unit(state.settings.length_unit);
@@ -52,10 +63,10 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
     for (pair_index, (pair, &(ia, ib))) in pairs
         .pairs_mut()
         .iter_mut()
-        .zip(&state.candidate_indices)
+        .zip(&candidates.indices)
         .enumerate()
     {
-        if state.dormant[pair_index] {
+        if candidates.dormant[pair_index] {
             continue;
         }
         let margin = config.contact_margin;
@@ -115,7 +126,7 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
         let restitution = state.restitution[ia].max(state.restitution[ib]);
         let friction = state.friction[ia].max(state.friction[ib]);
         let turning = Turning::of(state, ia, ib);
-        let start = state.contacts.len();
+        let start = rows.contacts.len();
         if let Some((t, motion_a, motion_b)) = impact_time {
             // A spinning body: the contact of its first point to meet the other is generated
             // at the time-of-impact poses (the start pose's normal and points would miss the
@@ -167,14 +178,14 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
                 }
                 let carried = pair.manifolds[m].points[k].data;
                 push_row(
-                    &mut state.contacts,
-                    &mut state.contact_keys,
+                    &mut rows.contacts,
+                    &mut rows.keys,
                     c,
                     carried,
                     (pair_index, m, k),
                 );
             }
-            close_pair_range(&state.contacts, &mut state.pair_ranges, start);
+            close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
             continue;
         }
         if !pair.update(pose_a, unit_a, pose_b, unit_b, prediction, pair_unit) {
@@ -189,14 +200,14 @@ pub fn update_narrow_phase(mut state: ResMut<PhysicsState>, mut pairs: ResMut<Co
             }
             let carried = pair.manifolds[m].points[k].data;
             push_row(
-                &mut state.contacts,
-                &mut state.contact_keys,
+                &mut rows.contacts,
+                &mut rows.keys,
                 c,
                 carried,
                 (pair_index, m, k),
             );
         }
-        close_pair_range(&state.contacts, &mut state.pair_ranges, start);
+        close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
     }
     unit_shapes.prune();
     state.unit_shapes = unit_shapes;

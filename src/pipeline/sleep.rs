@@ -8,7 +8,7 @@ use crate::dynamics::solver::Motion;
 use crate::dynamics::{AngularVelocity, LinearVelocity};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::PhysicsState;
+use super::{CandidatePairs, PhysicsState};
 
 /// Adds [`update_sleep`] to [`PhysicsSystems::Sleep`].
 pub struct SleepPlugin;
@@ -16,6 +16,7 @@ pub struct SleepPlugin;
 impl Plugin for SleepPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<PhysicsState>()
+            .init_resource::<CandidatePairs>()
             .add_systems(PhysicsSchedule, update_sleep.in_set(PhysicsSystems::Sleep));
     }
 }
@@ -28,6 +29,7 @@ pub fn update_sleep(
     mut commands: Commands,
     state: Res<PhysicsState>,
     pairs: Res<ContactPairs>,
+    candidates: Res<CandidatePairs>,
     mut bodies: Query<(
         Option<&mut SleepTimer>,
         Option<&mut LinearVelocity>,
@@ -99,7 +101,7 @@ pub fn update_sleep(
             && (b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO)
     };
     let mut links = Vec::new();
-    for (pair, &(ia, ib)) in pairs.candidates().iter().zip(&state.candidate_indices) {
+    for (pair, &(ia, ib)) in pairs.candidates().iter().zip(candidates.indices()) {
         let (da, db) = (
             state.bodies[ia].motion == Motion::Dynamic,
             state.bodies[ib].motion == Motion::Dynamic,

@@ -14,7 +14,7 @@ use crate::dynamics::{ImpactMessages, SolverStats};
 use crate::messages::Impact;
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::PhysicsState;
+use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents};
 
 use super::narrow_phase::Turning;
 
@@ -23,10 +23,14 @@ pub struct SolvePlugin;
 
 impl Plugin for SolvePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>().add_systems(
-            PhysicsSchedule,
-            solve_contacts.in_set(PhysicsSystems::Solve),
-        );
+        app.init_resource::<PhysicsState>()
+            .init_resource::<CandidatePairs>()
+            .init_resource::<ContactRows>()
+            .init_resource::<StepEvents>()
+            .add_systems(
+                PhysicsSchedule,
+                solve_contacts.in_set(PhysicsSystems::Solve),
+            );
     }
 }
 
@@ -45,7 +49,7 @@ impl Plugin for SolvePlugin {
 /// step at 60 Hz) meets the wall in a pose the start geometry does not describe, and every
 /// method but the hybrid one, which resolves impacts one at a time at their time of impact,
 /// let such a body through.
-fn stop_at_first_impact(state: &mut PhysicsState) {
+fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs) {
     let dt = state.dt;
     let margin = state.settings.config.contact_margin;
     let slop = state.settings.config.linear_slop;
@@ -83,8 +87,8 @@ fn stop_at_first_impact(state: &mut PhysicsState) {
             && motion(i).1 > margin
     };
     let mut first: Vec<f32> = Vec::new();
-    for (k, &(ia, ib)) in state.candidate_indices.iter().enumerate() {
-        if state.dormant[k] || !(fast(ia) || fast(ib)) {
+    for (k, &(ia, ib)) in candidates.indices.iter().enumerate() {
+        if candidates.dormant[k] || !(fast(ia) || fast(ib)) {
             continue;
         }
         if first.is_empty() {
@@ -176,13 +180,17 @@ pub fn solve_contacts(
     mut stats: ResMut<SolverStats>,
     mut state: ResMut<PhysicsState>,
     mut pairs: ResMut<ContactPairs>,
+    candidates: Res<CandidatePairs>,
+    mut rows: ResMut<ContactRows>,
+    mut events: ResMut<StepEvents>,
 ) {
+    let (rows, events) = (&mut *rows, &mut *events);
     let state = &mut *state;
     let config = &state.settings.config;
     *stats = solver::step(
         &mut state.bodies,
-        &mut state.contacts,
-        &state.pair_ranges,
+        &mut rows.contacts,
+        &rows.pair_ranges,
         config,
         state.settings.gravity.0,
         state.dt,
@@ -195,7 +203,7 @@ pub fn solve_contacts(
     // energy property test it was what raised the energy of 9 of the hybrid's 10 failing
     // worlds.
     if state.settings.config.method != solver::SolverMethod::Hybrid {
-        stop_at_first_impact(state);
+        stop_at_first_impact(state, &candidates);
     }
     let config = &state.settings.config;
     state.steps_since_bound_warning = state.steps_since_bound_warning.saturating_add(1);
@@ -212,11 +220,11 @@ pub fn solve_contacts(
     // Dormant pairs keep their touching state; the others are re-evaluated from this step.
     let mut touching: Vec<bool> = pairs
         .iter()
-        .zip(&state.dormant)
+        .zip(&candidates.dormant)
         .map(|(pair, &dormant)| dormant && pair.touching)
         .collect();
-    state.impacts.clear();
-    for (c, &(p, m, k)) in state.contacts.iter().zip(&state.contact_keys) {
+    events.impacts.clear();
+    for (c, &(p, m, k)) in rows.contacts.iter().zip(&rows.keys) {
         let pair = &mut pairs[p as usize];
         // A non-finite impulse (its bodies' results are non-finite too, and they are
         // quarantined in `write_back`) is not carried over: warm-started, it would make the
@@ -241,7 +249,7 @@ pub fn solve_contacts(
             ImpactMessages::AllContacts => c.total_impulse > 0.0,
         };
         if report {
-            state.impacts.push(Impact {
+            events.impacts.push(Impact {
                 a: pair.a,
                 b: pair.b,
                 point: c.point,
@@ -252,8 +260,8 @@ pub fn solve_contacts(
     }
     for (pair, now) in pairs.iter_mut().zip(touching) {
         match (pair.touching, now) {
-            (false, true) => state.started.push((pair.a, pair.b)),
-            (true, false) => state.ended.push((pair.a, pair.b)),
+            (false, true) => events.started.push((pair.a, pair.b)),
+            (true, false) => events.ended.push((pair.a, pair.b)),
             _ => {}
         }
         pair.touching = now;

@@ -46,7 +46,7 @@ pub struct Propagation {
     pub gravity: Vec3,
     /// Gravity, m/s^2, that the velocities already include over this step (the propagation
     /// method integrates it before the pass); zero otherwise. The part of an approach it made
-    /// is not bounced: see [`resolve_event`].
+    /// is not bounced: see `resolve_event`.
     pub integrated_gravity: Vec3,
     /// Substeps the later integration uses (1 when there is none): semi-implicit Euler over
     /// `n` substeps moves a body `g dt^2 (1 + 1/n) / 2` under gravity, a little more than the
