@@ -9,6 +9,8 @@ use parry3d::query::{
 };
 use parry3d::shape::{Shape, SharedShape};
 
+use crate::dynamics::solver::ContactConstraint;
+
 /// The impulses parry carries over to the matching contact point of the next step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactImpulse {
@@ -405,6 +407,60 @@ impl ContactPairs {
             .partition(|p| wake(p));
         self.resting = kept;
         self.pairs = merge(std::mem::take(&mut self.pairs), woken);
+    }
+
+    /// Stores each solved row's impulses in its manifold point (`keys`: the row's candidate
+    /// pair, manifold and point), so that the next step starts from them (warm starting). A
+    /// non-finite impulse (its bodies' results are non-finite too, and they are quarantined) is
+    /// not carried over: warm-started, it would make the next step non-finite again, and the
+    /// quarantine would never end.
+    pub fn store_impulses(&mut self, rows: &[ContactConstraint], keys: &[(u32, u32, u32)]) {
+        for (c, &(p, m, k)) in rows.iter().zip(keys) {
+            let finite = c.normal_impulse.is_finite()
+                && c.tangent_impulse[0].is_finite()
+                && c.tangent_impulse[1].is_finite();
+            self.pairs[p as usize].manifolds[m as usize].points[k as usize].data = if finite {
+                ContactImpulse {
+                    normal: c.normal_impulse,
+                    tangent: c.tangent_impulse,
+                }
+            } else {
+                ContactImpulse::default()
+            };
+        }
+    }
+
+    /// Sets each candidate pair's touching state from the step's solved rows: a pair touches
+    /// when a row is within `touch` (m) or pushed in the step; a `dormant` pair keeps its
+    /// state. Pairs that start and stop touching are pushed to `started` and `ended`.
+    pub fn update_touching(
+        &mut self,
+        rows: &[ContactConstraint],
+        keys: &[(u32, u32, u32)],
+        dormant: &[bool],
+        touch: f32,
+        started: &mut Vec<(Entity, Entity)>,
+        ended: &mut Vec<(Entity, Entity)>,
+    ) {
+        let mut touching: Vec<bool> = self
+            .pairs
+            .iter()
+            .zip(dormant)
+            .map(|(pair, &dormant)| dormant && pair.touching)
+            .collect();
+        for (c, &(p, _, _)) in rows.iter().zip(keys) {
+            if c.separation <= touch || c.total_impulse > 0.0 {
+                touching[p as usize] = true;
+            }
+        }
+        for (pair, now) in self.pairs.iter_mut().zip(touching) {
+            match (pair.touching, now) {
+                (false, true) => started.push((pair.a, pair.b)),
+                (true, false) => ended.push((pair.a, pair.b)),
+                _ => {}
+            }
+            pair.touching = now;
+        }
     }
 
     /// Replaces the candidate pairs with `candidates` (sorted by `(a, b)`, `a < b`), keeping the

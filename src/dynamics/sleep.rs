@@ -19,7 +19,7 @@ use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
 use crate::collision::broad_phase::{is_unbounded, overlaps, sort_by_lower_bound, sweep_axis};
-use crate::dynamics::solver::SolverBody;
+use crate::dynamics::solver::{Motion, SolverBody};
 
 /// Marks a sleeping body. Insert `Sleeping::default()` to put a body to sleep on its own;
 /// remove it to wake the body.
@@ -98,6 +98,26 @@ impl Islands {
             self.parent[hi as usize] = lo;
         }
     }
+}
+
+/// The links that make islands (for [`islands_to_sleep`]): the touching `pairs` (body indices
+/// into `bodies`) of two dynamic bodies, or of a dynamic body and a moving kinematic one (a
+/// body on a moving platform never sleeps: its island gets a member that is never slow).
+pub fn island_links(
+    bodies: &[SolverBody],
+    pairs: impl IntoIterator<Item = (usize, usize)>,
+) -> Vec<(u32, u32)> {
+    let dynamic = |i: usize| bodies[i].motion == Motion::Dynamic;
+    let moving = |i: usize| {
+        let b = &bodies[i];
+        b.motion == Motion::Kinematic
+            && (b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO)
+    };
+    pairs
+        .into_iter()
+        .filter(|&(a, b)| (dynamic(a) && (dynamic(b) || moving(b))) || (dynamic(b) && moving(a)))
+        .map(|(a, b)| (a as u32, b as u32))
+        .collect()
 }
 
 /// Decides which bodies fall asleep this step. `timers[i]` is body `i`'s slow time (s) after

@@ -140,6 +140,32 @@ pub fn prepare_bodies(
         settings.time.delta_secs(),
     );
     let sleep_enabled = state.settings.sleep.enabled;
+    begin_step(state);
+    for mut item in awake.iter_mut() {
+        if let Gathered::Quarantined = gather_body(state, &mut commands, &ticks, &mut item) {
+            state.departed.push(item.entity);
+        }
+    }
+    let read = sleepers_to_read(state, &mut sleeping, &mut removals);
+    let mut query = sleeping.p1();
+    for entity in read {
+        let Ok(mut item) = query.get_mut(entity) else {
+            continue;
+        };
+        gather_sleeper(state, &mut commands, &ticks, &mut item);
+    }
+    if !sleep_enabled {
+        state.read_every_step.clear();
+        return;
+    }
+    // Islands the user touched wake whole.
+    let woken = std::mem::take(&mut state.woken);
+    wake_islands(state, &woken);
+    mark_awake_active(state);
+}
+
+/// Starts a step's arrays: empty, the step counted.
+fn begin_step(state: &mut PhysicsState) {
     state.dt = state.settings.dt;
     state.step = state.step.wrapping_add(1);
     state.entities.clear();
@@ -158,16 +184,18 @@ pub fn prepare_bodies(
     state.woken.clear();
     state.entered.clear();
     state.departed.clear();
+}
 
-    for mut item in awake.iter_mut() {
-        if let Gathered::Quarantined = gather_body(state, &mut commands, &ticks, &mut item) {
-            state.departed.push(item.entity);
-        }
-    }
-
-    // The sleeping bodies to read: the disturbed ones, those that lost a component, and those
-    // that must be read every step (quarantined, or not dynamic); all of them when sleeping
-    // is off.
+/// The sleeping bodies to read in this step, sorted: the disturbed ones, those that lost a
+/// component, and those that must be read every step (quarantined, or not dynamic); all of
+/// them when sleeping is off. Those that lost their collider (or were despawned) depart, and
+/// leave the sleeping set with those read again.
+fn sleepers_to_read(
+    state: &mut PhysicsState,
+    sleeping: &mut SleepingBodies,
+    removals: &mut BodyRemovals,
+) -> Vec<Entity> {
+    let sleep_enabled = state.settings.sleep.enabled;
     let mut read: Vec<Entity> = std::mem::take(&mut state.read_every_step);
     state.departed.extend(removals.collider.read());
     for entity in removals.sleeping.read() {
@@ -206,50 +234,48 @@ pub fn prepare_bodies(
     state
         .sleepers
         .set_margin(state.settings.config.contact_margin);
-    let mut query = sleeping.p1();
-    for entity in read {
-        let Ok(mut item) = query.get_mut(entity) else {
-            continue;
-        };
-        match gather_body(state, &mut commands, &ticks, &mut item) {
-            Gathered::Asleep => {
-                let i = state.entities.len() - 1;
-                let (island, body) = state.asleep[i].expect("gathered asleep");
-                state.sleepers.insert(
-                    Sleeper {
-                        entity,
-                        island,
-                        body,
-                        local_com: state.local_com[i],
-                        shape: state.shapes[i].clone(),
-                        pose: state.poses[i],
-                        restitution: state.restitution[i],
-                        friction: state.friction[i],
-                        radius: state.radius[i],
-                    },
-                    state.step,
-                );
-                state.entered.push(entity);
-            }
-            Gathered::Quarantined => {
-                state.sleepers.remove(entity);
-                state.departed.push(entity);
-                state.read_every_step.push(entity);
-            }
-            Gathered::Awake => {
-                state.sleepers.remove(entity);
-                state.read_every_step.push(entity);
-            }
+    read
+}
+
+/// Reads one sleeping body: still asleep, it joins the step and the sleeping set keeps its
+/// record; quarantined, it departs; awake (or not dynamic), it is read every step.
+fn gather_sleeper(
+    state: &mut PhysicsState,
+    commands: &mut Commands,
+    ticks: &SystemChangeTick,
+    item: &mut BodyDataItem,
+) {
+    let entity = item.entity;
+    match gather_body(state, commands, ticks, item) {
+        Gathered::Asleep => {
+            let i = state.entities.len() - 1;
+            let (island, body) = state.asleep[i].expect("gathered asleep");
+            state.sleepers.insert(
+                Sleeper {
+                    entity,
+                    island,
+                    body,
+                    local_com: state.local_com[i],
+                    shape: state.shapes[i].clone(),
+                    pose: state.poses[i],
+                    restitution: state.restitution[i],
+                    friction: state.friction[i],
+                    radius: state.radius[i],
+                },
+                state.step,
+            );
+            state.entered.push(entity);
+        }
+        Gathered::Quarantined => {
+            state.sleepers.remove(entity);
+            state.departed.push(entity);
+            state.read_every_step.push(entity);
+        }
+        Gathered::Awake => {
+            state.sleepers.remove(entity);
+            state.read_every_step.push(entity);
         }
     }
-    if !sleep_enabled {
-        state.read_every_step.clear();
-        return;
-    }
-    // Islands the user touched wake whole.
-    let woken = std::mem::take(&mut state.woken);
-    wake_islands(state, &woken);
-    mark_awake_active(state);
 }
 
 /// What [`gather_body`] made of a body.

@@ -3,7 +3,7 @@
 use bevy::prelude::*;
 
 use crate::collision::ContactPairs;
-use crate::dynamics::sleep::{SleepTimer, Sleeping, islands_to_sleep};
+use crate::dynamics::sleep::{SleepTimer, Sleeping, island_links, islands_to_sleep};
 use crate::dynamics::solver::Motion;
 use crate::dynamics::{AngularVelocity, LinearVelocity};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
@@ -93,23 +93,15 @@ pub fn update_sleep(
         };
         *slot = Some(timer.0);
     }
-    // Islands: touching pairs of dynamic bodies; a body touching a moving kinematic body stays
-    // awake (its island gets a member that never sleeps).
-    let moving = |i: usize| {
-        let b = &state.bodies[i];
-        b.motion == Motion::Kinematic
-            && (b.linear_velocity != Vec3::ZERO || b.angular_velocity != Vec3::ZERO)
-    };
-    let mut links = Vec::new();
-    for (pair, &(ia, ib)) in pairs.candidates().iter().zip(candidates.indices()) {
-        let (da, db) = (
-            state.bodies[ia].motion == Motion::Dynamic,
-            state.bodies[ib].motion == Motion::Dynamic,
-        );
-        if pair.touching && ((da && (db || moving(ib))) || (db && moving(ia))) {
-            links.push((ia as u32, ib as u32));
-        }
-    }
+    let links = island_links(
+        &state.bodies,
+        pairs
+            .candidates()
+            .iter()
+            .zip(candidates.indices())
+            .filter(|(pair, _)| pair.touching)
+            .map(|(_, &pair)| pair),
+    );
     for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep)
         .into_iter()
         .enumerate()

@@ -8,10 +8,9 @@ use parry3d::query::cast_shapes_nonlinear;
 use parry3d::shape::{Ball, Shape};
 
 use crate::collision::ContactPairs;
-use crate::collision::narrow_phase::{ContactImpulse, StepMotion};
+use crate::collision::narrow_phase::StepMotion;
+use crate::dynamics::SolverStats;
 use crate::dynamics::solver::{self, Motion};
-use crate::dynamics::{ImpactMessages, SolverStats};
-use crate::messages::Impact;
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
 use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents};
@@ -216,54 +215,20 @@ pub fn solve_contacts(
         );
     }
 
-    let pairs = pairs.pairs_mut();
-    // Dormant pairs keep their touching state; the others are re-evaluated from this step.
-    let mut touching: Vec<bool> = pairs
-        .iter()
-        .zip(&candidates.dormant)
-        .map(|(pair, &dormant)| dormant && pair.touching)
-        .collect();
+    pairs.store_impulses(&rows.contacts, &rows.keys);
+    pairs.update_touching(
+        &rows.contacts,
+        &rows.keys,
+        &candidates.dormant,
+        state.settings.touch_distance,
+        &mut events.started,
+        &mut events.ended,
+    );
     events.impacts.clear();
-    for (c, &(p, m, k)) in rows.contacts.iter().zip(&rows.keys) {
-        let pair = &mut pairs[p as usize];
-        // A non-finite impulse (its bodies' results are non-finite too, and they are
-        // quarantined in `write_back`) is not carried over: warm-started, it would make the
-        // next step non-finite again, and the quarantine would never end.
-        let finite = c.normal_impulse.is_finite()
-            && c.tangent_impulse[0].is_finite()
-            && c.tangent_impulse[1].is_finite();
-        pair.manifolds[m as usize].points[k as usize].data = if finite {
-            ContactImpulse {
-                normal: c.normal_impulse,
-                tangent: c.tangent_impulse,
-            }
-        } else {
-            ContactImpulse::default()
-        };
-        if c.separation <= state.settings.touch_distance || c.total_impulse > 0.0 {
-            touching[p as usize] = true;
-        }
-        let report = match config.impact_messages {
-            ImpactMessages::Off => false,
-            ImpactMessages::Impacts => c.impact,
-            ImpactMessages::AllContacts => c.total_impulse > 0.0,
-        };
-        if report {
-            events.impacts.push(Impact {
-                a: pair.a,
-                b: pair.b,
-                point: c.point,
-                normal: c.normal,
-                impulse: c.total_impulse,
-            });
-        }
-    }
-    for (pair, now) in pairs.iter_mut().zip(touching) {
-        match (pair.touching, now) {
-            (false, true) => events.started.push((pair.a, pair.b)),
-            (true, false) => events.ended.push((pair.a, pair.b)),
-            _ => {}
-        }
-        pair.touching = now;
-    }
+    events.impacts.extend(crate::messages::impacts(
+        &pairs,
+        &rows.contacts,
+        &rows.keys,
+        config.impact_messages,
+    ));
 }
