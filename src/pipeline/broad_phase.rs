@@ -8,19 +8,20 @@ use crate::collision::broad_phase::pairs_with_active;
 use crate::dynamics::solver::Motion;
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::{CandidatePairs, PhysicsState, bring_in_overlapped, mark_awake_active, wake_islands};
+use super::{
+    CandidatePairs, PhysicsState, bring_in_overlapped, init_stage_state, mark_awake_active,
+    wake_islands,
+};
 
 /// Adds [`update_broad_phase`] to [`PhysicsSystems::BroadPhase`].
 pub struct BroadPhasePlugin;
 
 impl Plugin for BroadPhasePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>()
-            .init_resource::<CandidatePairs>()
-            .add_systems(
-                PhysicsSchedule,
-                update_broad_phase.in_set(PhysicsSystems::BroadPhase),
-            );
+        init_stage_state(app).add_systems(
+            PhysicsSchedule,
+            update_broad_phase.in_set(PhysicsSystems::BroadPhase),
+        );
     }
 }
 

@@ -5,14 +5,14 @@ use bevy::prelude::*;
 use crate::messages::{CollisionEnded, CollisionStarted, Impact};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::StepEvents;
+use super::{StepEvents, init_stage_state};
 
 /// Adds [`send_messages`] to [`PhysicsSystems::Messages`].
 pub struct MessagesPlugin;
 
 impl Plugin for MessagesPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<StepEvents>().add_systems(
+        init_stage_state(app).add_systems(
             PhysicsSchedule,
             send_messages.in_set(PhysicsSystems::Messages),
         );

@@ -41,6 +41,15 @@ use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
 use crate::dynamics::{Gravity, SolverConfig};
 use crate::messages::Impact;
 
+/// Initialises the resources the stages share, so that each stage plugin can run with any of
+/// the others replaced or left out.
+fn init_stage_state(app: &mut App) -> &mut App {
+    app.init_resource::<PhysicsState>()
+        .init_resource::<CandidatePairs>()
+        .init_resource::<ContactRows>()
+        .init_resource::<StepEvents>()
+}
+
 /// The bodies of the current step, packed by the prepare stage (and the sleeping bodies the
 /// broad phase wakes), with the settings of the step and the bookkeeping of sleeping bodies.
 #[derive(Resource, Default)]

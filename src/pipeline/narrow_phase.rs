@@ -13,21 +13,17 @@ use crate::collision::narrow_phase::{
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents};
+use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents, init_stage_state};
 
 /// Adds [`update_narrow_phase`] to [`PhysicsSystems::NarrowPhase`].
 pub struct NarrowPhasePlugin;
 
 impl Plugin for NarrowPhasePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>()
-            .init_resource::<CandidatePairs>()
-            .init_resource::<ContactRows>()
-            .init_resource::<StepEvents>()
-            .add_systems(
-                PhysicsSchedule,
-                update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
-            );
+        init_stage_state(app).add_systems(
+            PhysicsSchedule,
+            update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
+        );
     }
 }
 

@@ -21,14 +21,14 @@ use crate::dynamics::{
 };
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::{PhysicsState, mark_awake_active, validate_settings, wake_islands};
+use super::{PhysicsState, init_stage_state, mark_awake_active, validate_settings, wake_islands};
 
 /// Adds [`prepare_bodies`] to [`PhysicsSystems::Prepare`].
 pub struct PreparePlugin;
 
 impl Plugin for PreparePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>().add_systems(
+        init_stage_state(app).add_systems(
             PhysicsSchedule,
             prepare_bodies.in_set(PhysicsSystems::Prepare),
         );

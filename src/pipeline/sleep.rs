@@ -8,15 +8,14 @@ use crate::dynamics::solver::Motion;
 use crate::dynamics::{AngularVelocity, LinearVelocity};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::{CandidatePairs, PhysicsState};
+use super::{CandidatePairs, PhysicsState, init_stage_state};
 
 /// Adds [`update_sleep`] to [`PhysicsSystems::Sleep`].
 pub struct SleepPlugin;
 
 impl Plugin for SleepPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>()
-            .init_resource::<CandidatePairs>()
+        init_stage_state(app)
             .add_systems(PhysicsSchedule, update_sleep.in_set(PhysicsSystems::Sleep));
     }
 }

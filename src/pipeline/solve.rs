@@ -13,23 +13,18 @@ use crate::dynamics::SolverStats;
 use crate::dynamics::solver::{self, Motion};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents};
-
 use super::narrow_phase::Turning;
+use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents, init_stage_state};
 
 /// Adds [`solve_contacts`] to [`PhysicsSystems::Solve`].
 pub struct SolvePlugin;
 
 impl Plugin for SolvePlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>()
-            .init_resource::<CandidatePairs>()
-            .init_resource::<ContactRows>()
-            .init_resource::<StepEvents>()
-            .add_systems(
-                PhysicsSchedule,
-                solve_contacts.in_set(PhysicsSystems::Solve),
-            );
+        init_stage_state(app).add_systems(
+            PhysicsSchedule,
+            solve_contacts.in_set(PhysicsSystems::Solve),
+        );
     }
 }
 

@@ -8,14 +8,14 @@ use crate::dynamics::validation::body_label;
 use crate::dynamics::{AngularVelocity, LinearVelocity, Quarantined};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::PhysicsState;
+use super::{PhysicsState, init_stage_state};
 
 /// Adds [`write_back`] to [`PhysicsSystems::WriteBack`].
 pub struct WriteBackPlugin;
 
 impl Plugin for WriteBackPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<PhysicsState>().add_systems(
+        init_stage_state(app).add_systems(
             PhysicsSchedule,
             write_back.in_set(PhysicsSystems::WriteBack),
         );
