@@ -47,7 +47,7 @@ pub enum SolverMethod {
     Propagation,
     /// Projected Gauss-Seidel with accumulated impulses clamped at >= 0, warm starting,
     /// restitution targets for the rows whose gap closes within the substep, from their
-    /// approach then (see `iterative::arrival`), and Baumgarte position correction. Stages per
+    /// approach then (see `sequential_impulses::arrival`), and Baumgarte position correction. Stages per
     /// substep: gravity, warm start, `iterations` sweeps, integrate.
     SequentialImpulses,
     /// Box2D v3's soft step: per substep gravity, warm start, soft solve, integrate positions,

@@ -1,0 +1,83 @@
+//! Jacobi ([`SolverMethod::Jacobi`](super::SolverMethod::Jacobi)): every row computed from the
+//! velocities of the sweep's start, with mass splitting, so the order of the rows does not
+//! matter.
+
+use super::body::{Motion, SolverBody};
+use super::contact::{ContactConstraint, solve_friction};
+use super::iterative::Sweep;
+use super::sequential_impulses::{Arrival, RigidRows};
+
+/// How many contacts touch each body (for Jacobi mass splitting).
+pub(super) fn contact_counts(bodies: usize, contacts: &[ContactConstraint]) -> Vec<u32> {
+    let mut counts = vec![0u32; bodies];
+    for c in contacts {
+        counts[c.body_a] += 1;
+        counts[c.body_b] += 1;
+    }
+    counts
+}
+
+/// One Jacobi sweep: every row computes its impulse from the same velocities, then all are
+/// applied together. With `split`, each body's inverse mass and inertia are scaled by the
+/// number of rows that touch it when computing a row's effective mass (mass splitting), which
+/// makes the sweep a convergent averaging instead of an overshooting sum.
+///
+/// `counts` holds how many rows touch each body (see `contact_counts`). The sweep has converged
+/// exactly when no body that a changed row touches is touched by any other row: each changed
+/// row was then solved alone with its full effective mass (a split count of 1).
+pub fn jacobi_sweep(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactConstraint],
+    rows: &RigidRows,
+    arrivals: &[Arrival],
+    counts: &[u32],
+    split: bool,
+    deltas: &mut Vec<f32>,
+) -> Sweep {
+    deltas.clear();
+    for (c, arrival) in contacts.iter_mut().zip(arrivals) {
+        if c.normal_mass == 0.0 {
+            deltas.push(0.0);
+            continue;
+        }
+        let vn = c.normal_velocity(bodies);
+        let target = rows.target(c, bodies, arrival.bounce);
+        let mass = if split {
+            split_mass(c, bodies, counts)
+        } else {
+            c.normal_mass
+        };
+        let new = (c.normal_impulse + mass * (target - vn)).max(0.0);
+        deltas.push(new - c.normal_impulse);
+        c.normal_impulse = new;
+        c.max_normal_impulse = c.max_normal_impulse.max(new);
+    }
+    let mut largest = 0.0f32;
+    let mut settled = true;
+    for (c, &delta) in contacts.iter().zip(deltas.iter()) {
+        if delta != 0.0 {
+            c.apply_normal_impulse(bodies, delta);
+            largest = largest.max(delta.abs() / c.normal_mass);
+            let shared = |i: usize| bodies[i].motion == Motion::Dynamic && counts[i] > 1;
+            settled &= !shared(c.body_a) && !shared(c.body_b);
+        }
+    }
+    for c in contacts.iter_mut().filter(|c| c.friction > 0.0) {
+        settled &= !solve_friction(bodies, c);
+    }
+    Sweep { largest, settled }
+}
+
+/// Effective mass of a row with each body's share split `count` ways.
+fn split_mass(c: &ContactConstraint, bodies: &[SolverBody], counts: &[u32]) -> f32 {
+    let (na, nb) = (
+        counts[c.body_a].max(1) as f32,
+        counts[c.body_b].max(1) as f32,
+    );
+    let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
+    let mut k = na * a.inverse_mass + nb * b.inverse_mass;
+    if c.angular {
+        k += na * c.rn_a.dot(c.ang_a) + nb * c.rn_b.dot(c.ang_b);
+    }
+    if k > 0.0 { 1.0 / k } else { 0.0 }
+}
