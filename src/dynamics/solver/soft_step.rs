@@ -94,33 +94,47 @@ pub(super) fn soft_substeps(
     };
     let skip = matches!(resting, Resting::Idle);
     let hybrid = matches!(resting, Resting::Manifolds(_));
+    let tolerance = config.velocity_tolerance;
     for substep in 0..n {
         integrate_velocities(bodies, gravity, h);
         if !skip {
             warm_start(bodies, contacts);
-            for _ in 0..config.iterations.max(1) {
-                stats.iterations += 1;
-                if sweep(bodies, contacts, Some(soft), None).done(config.velocity_tolerance) {
-                    break;
-                }
-            }
+            // Solve: the soft rows, pushing penetration out.
+            iterate(config.iterations.max(1), stats, || {
+                sweep(bodies, contacts, Some(soft), None).done(tolerance)
+            });
         }
         integrate_positions(bodies, gravity, h);
         if !skip {
+            // Relax: rigid rows without push-out, removing the velocity the soft solve added.
             // In the hybrid method, the last relax pass leaves impacts that close after the
             // step to the next step's impact phase.
             let leave_impacts =
                 (hybrid && substep + 1 == n).then_some(config.restitution_threshold);
-            for _ in 0..config.relax_iterations {
-                stats.iterations += 1;
-                if sweep(bodies, contacts, None, leave_impacts).done(config.velocity_tolerance) {
-                    break;
-                }
-            }
+            iterate(config.relax_iterations, stats, || {
+                sweep(bodies, contacts, None, leave_impacts).done(tolerance)
+            });
         }
-        for c in contacts.iter_mut() {
-            c.total_impulse += c.normal_impulse;
+        store_impulses(contacts);
+    }
+}
+
+/// Runs up to `iterations` sweeps (each counted in `stats`), stopping after the first that
+/// reports itself done.
+fn iterate(iterations: u32, stats: &mut SolverStats, mut sweep: impl FnMut() -> bool) {
+    for _ in 0..iterations {
+        stats.iterations += 1;
+        if sweep() {
+            break;
         }
+    }
+}
+
+/// Adds each row's impulse of the substep to the impulse it took over the step (what
+/// [`Impact`](crate::Impact) messages report, and what tells the contacts that pushed).
+fn store_impulses(contacts: &mut [ContactConstraint]) {
+    for c in contacts.iter_mut() {
+        c.total_impulse += c.normal_impulse;
     }
 }
 
