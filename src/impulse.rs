@@ -113,10 +113,41 @@ pub fn normal_velocity(a: &ImpulseBody, b: &ImpulseBody, point: Vec3, normal: Ve
 pub fn inverse_effective_mass(a: &ImpulseBody, b: &ImpulseBody, point: Vec3, normal: Vec3) -> f32 {
     let rn_a = (point - a.center_of_mass).cross(normal);
     let rn_b = (point - b.center_of_mass).cross(normal);
-    a.inverse_mass
-        + b.inverse_mass
-        + rn_a.dot(a.inverse_inertia * rn_a)
-        + rn_b.dot(b.inverse_inertia * rn_b)
+    row_inverse_mass(
+        [a.inverse_mass, b.inverse_mass],
+        [
+            rn_a.dot(a.inverse_inertia * rn_a),
+            rn_b.dot(b.inverse_inertia * rn_b),
+        ],
+    )
+}
+
+/// `K` in the prepared form the solver runs. A contact row keeps, per body, `u = r x n` and
+/// `I^-1 u`, so each body's angular term is `u . (I^-1 u)`, and
+///
+/// ```text
+/// K = (1/m_A + 1/m_B) + (u_A . I_A^-1 u_A + u_B . I_B^-1 u_B),
+/// ```
+///
+/// with `linear` the two inverse masses and `angular` the two angular terms (zero for a row
+/// whose lever arms vanish). Every row of the solver gets its `K` here
+/// ([`prepare_normal_row`](crate::dynamics::solver::ContactConstraint::prepare_normal_row),
+/// Jacobi's mass splitting, the hybrid method's manifold blocks); where a method scales a
+/// body's response (Jacobi splits a body's mass among its contacts, the hybrid method holds a
+/// support in part), it passes that body's two terms scaled. [`inverse_effective_mass`] is this
+/// with the terms of two [`ImpulseBody`]s.
+///
+/// # Examples
+///
+/// ```
+/// use impact3d::impulse::row_inverse_mass;
+///
+/// // Two unit masses, lever arms along the normal (no angular terms): K = 2.
+/// assert_eq!(row_inverse_mass([1.0, 1.0], [0.0, 0.0]), 2.0);
+/// ```
+#[inline]
+pub fn row_inverse_mass(linear: [f32; 2], angular: [f32; 2]) -> f32 {
+    (linear[0] + linear[1]) + (angular[0] + angular[1])
 }
 
 /// The scalar impulse `j = -(1 + e) v_n / K` for one contact (see the module docs).

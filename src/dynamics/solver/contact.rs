@@ -5,6 +5,7 @@
 use bevy::math::{Quat, Vec3};
 
 use super::body::{Motion, SolverBody, pair_mut};
+use crate::impulse::row_inverse_mass;
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.
 /// Built by the narrow phase with [`ContactConstraint::new`], completed by [`prepare_contacts`].
@@ -158,7 +159,14 @@ impl ContactConstraint {
             self.ang_a = Vec3::ZERO;
             self.ang_b = Vec3::ZERO;
         }
-        let k = linear + if self.angular { angular } else { 0.0 };
+        let k = if self.angular {
+            row_inverse_mass(
+                [a.inverse_mass, b.inverse_mass],
+                [self.rn_a.dot(self.ang_a), self.rn_b.dot(self.ang_b)],
+            )
+        } else {
+            linear
+        };
         self.normal_mass = if k > 0.0 { 1.0 / k } else { 0.0 };
     }
 

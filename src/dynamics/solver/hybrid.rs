@@ -14,6 +14,7 @@ use super::iterative::{Settling, Sweep};
 use super::propagation::propagate;
 use super::soft_step::{Resting, Softness, soft_substeps};
 use super::{SolverConfig, SolverStats, propagation_params};
+use crate::impulse::row_inverse_mass;
 
 /// The hybrid method's solve of one step (see [`super::step`]): the impact phase, then the
 /// resting phase over the manifolds as blocks in shock order (or only gravity and integration
@@ -1007,15 +1008,19 @@ fn solve_block(
     // The support responds along its free direction, its rotation scaled by `1 - hold`.
     let response = block.response(group[0].normal);
     let (fa, fb) = (response.a.angular, response.b.angular);
-    let linear = response.a.along_normal * bodies[group[0].body_a].inverse_mass
-        + response.b.along_normal * bodies[group[0].body_b].inverse_mass;
+    let linear_a = response.a.along_normal * bodies[group[0].body_a].inverse_mass;
+    let linear_b = response.b.along_normal * bodies[group[0].body_b].inverse_mass;
+    let linear = linear_a + linear_b;
     // `K_ii` of row `c` with the support's response scaled.
     let diagonal = |c: &ContactConstraint| {
-        let mut k = linear;
         if c.angular {
-            k += fa * c.rn_a.dot(c.ang_a) + fb * c.rn_b.dot(c.ang_b);
+            row_inverse_mass(
+                [linear_a, linear_b],
+                [fa * c.rn_a.dot(c.ang_a), fb * c.rn_b.dot(c.ang_b)],
+            )
+        } else {
+            linear
         }
-        k
     };
     rows.clear();
     // Sums over the soft points: count, r x n and I^-1 (r x n) of each body, and the impulse.
@@ -1082,7 +1087,9 @@ fn solve_block(
         .soft
         .map_or(0.0, |soft| soft.impulse_scale / soft.mass_scale);
     // c = K_mean / a2, K_mean = 1^T A 1 / N^2 (the points share the normal, so the linear part
-    // of 1^T A 1 is N^2 (1/m_A + 1/m_B)).
+    // of 1^T A 1 is N^2 (1/m_A + 1/m_B)): the `K` of the manifold's centroid, from the rows'
+    // `r x n` and `I^-1 (r x n)` terms summed over the points (each row's own `K` is
+    // `row_inverse_mass`'s, in `diagonal` above).
     let coupling = match (solve.soft, count) {
         // Point by point, the rows do not use it.
         _ if pointwise => 0.0,

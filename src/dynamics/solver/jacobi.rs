@@ -6,6 +6,7 @@ use super::body::{Motion, SolverBody};
 use super::contact::{ContactConstraint, solve_friction};
 use super::iterative::Sweep;
 use super::sequential_impulses::{Arrival, RigidRows};
+use crate::impulse::row_inverse_mass;
 
 /// How many contacts touch each body (for Jacobi mass splitting).
 pub(super) fn contact_counts(bodies: usize, contacts: &[ContactConstraint]) -> Vec<u32> {
@@ -75,9 +76,11 @@ fn split_mass(c: &ContactConstraint, bodies: &[SolverBody], counts: &[u32]) -> f
         counts[c.body_b].max(1) as f32,
     );
     let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
-    let mut k = na * a.inverse_mass + nb * b.inverse_mass;
-    if c.angular {
-        k += na * c.rn_a.dot(c.ang_a) + nb * c.rn_b.dot(c.ang_b);
-    }
+    let linear = [na * a.inverse_mass, nb * b.inverse_mass];
+    let k = if c.angular {
+        row_inverse_mass(linear, [na * c.rn_a.dot(c.ang_a), nb * c.rn_b.dot(c.ang_b)])
+    } else {
+        linear[0] + linear[1]
+    };
     if k > 0.0 { 1.0 / k } else { 0.0 }
 }
