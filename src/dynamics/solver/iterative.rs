@@ -2,7 +2,7 @@
 //! tells when a Gauss-Seidel sweep has converged exactly ([`Settling`]).
 
 use super::body::{Motion, SolverBody};
-use super::contact::ContactConstraint;
+use super::contact::{ContactConstraint, solve_friction};
 
 /// What one sweep over the contacts did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -54,6 +54,31 @@ impl Settling {
             if bodies[i].motion == Motion::Dynamic {
                 self.last_change[i] = index as u32 + 1;
             }
+        }
+    }
+
+    /// Row `index` of a row-by-row sweep takes `new` as its accumulated normal impulse (already
+    /// clamped): the change is applied to its bodies, recorded, and counted in `largest` (as a
+    /// velocity change, m/s); then its friction is solved.
+    #[inline]
+    pub(super) fn accept(
+        &mut self,
+        c: &mut ContactConstraint,
+        index: usize,
+        new: f32,
+        bodies: &mut [SolverBody],
+        largest: &mut f32,
+    ) {
+        let delta = new - c.normal_impulse;
+        if delta != 0.0 {
+            c.normal_impulse = new;
+            c.apply_normal_impulse(bodies, delta);
+            *largest = largest.max(delta.abs() / c.normal_mass);
+            self.changed(bodies, c.body_a, c.body_b, index);
+        }
+        c.max_normal_impulse = c.max_normal_impulse.max(new);
+        if c.friction > 0.0 {
+            self.friction_changed |= solve_friction(bodies, c);
         }
     }
 

@@ -5,7 +5,7 @@
 use bevy::prelude::*;
 
 use super::body::{Motion, SolverBody, integrate_positions, integrate_velocities};
-use super::contact::{ContactConstraint, refresh_inertia, solve_friction, warm_start};
+use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::iterative::{Settling, Sweep};
 use super::jacobi::{contact_counts, jacobi_sweep};
 use super::propagation::{self, time_of_impact};
@@ -259,17 +259,7 @@ pub fn sequential_sweep(
         let vn = c.normal_velocity(bodies);
         let target = rows.target(c, bodies, arrivals[i].bounce);
         let new = (c.normal_impulse + c.normal_mass * (target - vn)).max(0.0);
-        let delta = new - c.normal_impulse;
-        if delta != 0.0 {
-            c.normal_impulse = new;
-            c.apply_normal_impulse(bodies, delta);
-            largest = largest.max(delta.abs() / c.normal_mass);
-            settling.changed(bodies, c.body_a, c.body_b, i);
-        }
-        c.max_normal_impulse = c.max_normal_impulse.max(new);
-        if c.friction > 0.0 {
-            settling.friction_changed |= solve_friction(bodies, c);
-        }
+        settling.accept(c, i, new, bodies, &mut largest);
     }
     Sweep {
         largest,

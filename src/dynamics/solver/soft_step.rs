@@ -5,7 +5,7 @@
 use bevy::prelude::*;
 
 use super::body::{SolverBody, integrate_positions, integrate_velocities};
-use super::contact::{ContactConstraint, refresh_inertia, solve_friction, warm_start};
+use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::hybrid::{Block, ManifoldSolve, manifold_sweep};
 use super::iterative::{Settling, Sweep};
 use super::{SolverConfig, SolverStats};
@@ -221,17 +221,7 @@ pub fn soft_sweep(
         let vn = c.normal_velocity(bodies);
         let impulse = -c.normal_mass * mass_scale * (vn + bias) - impulse_scale * c.normal_impulse;
         let new = (c.normal_impulse + impulse).max(0.0);
-        let delta = new - c.normal_impulse;
-        if delta != 0.0 {
-            c.normal_impulse = new;
-            c.apply_normal_impulse(bodies, delta);
-            largest = largest.max(delta.abs() / c.normal_mass);
-            settling.changed(bodies, c.body_a, c.body_b, i);
-        }
-        c.max_normal_impulse = c.max_normal_impulse.max(new);
-        if c.friction > 0.0 {
-            settling.friction_changed |= solve_friction(bodies, c);
-        }
+        settling.accept(c, i, new, bodies, &mut largest);
     }
     Sweep {
         largest,
