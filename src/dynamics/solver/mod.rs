@@ -11,6 +11,7 @@
 pub mod body;
 pub mod contact;
 pub mod iterative;
+mod lcp;
 pub mod propagation;
 
 use std::ops::Range;
@@ -273,24 +274,27 @@ pub fn step(
     }
     prepare_contacts(bodies, contacts);
 
-    let propagation = |threshold: f32, gravity: Vec3, integrated_gravity: Vec3| Propagation {
-        threshold,
-        chain_threshold: config.velocity_tolerance,
-        max_sweeps: config.max_propagation_sweeps,
-        dt,
-        gravity,
-        integrated_gravity,
-        substeps: config.substeps.max(1),
-        max_block_iterations: config.max_block_iterations,
-        velocity_tolerance: config.velocity_tolerance,
-    };
+    let propagation =
+        |threshold: f32, gravity: Vec3, integrated_gravity: Vec3, join: bool| Propagation {
+            join_touching: join,
+            threshold,
+            chain_threshold: config.velocity_tolerance,
+            max_sweeps: config.max_propagation_sweeps,
+            dt,
+            gravity,
+            integrated_gravity,
+            substeps: config.substeps.max(1),
+            max_block_iterations: config.max_block_iterations,
+            velocity_tolerance: config.velocity_tolerance,
+            touch: config.linear_slop,
+        };
     match config.method {
         SolverMethod::Hybrid => {
             let report = propagate(
                 bodies,
                 contacts,
                 manifolds,
-                &propagation(config.restitution_threshold, gravity, Vec3::ZERO),
+                &propagation(config.restitution_threshold, gravity, Vec3::ZERO, true),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -353,7 +357,7 @@ pub fn step(
                 bodies,
                 contacts,
                 &singles,
-                &propagation(config.velocity_tolerance, Vec3::ZERO, gravity),
+                &propagation(config.velocity_tolerance, Vec3::ZERO, gravity, false),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
