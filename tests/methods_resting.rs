@@ -433,9 +433,12 @@ fn heavy_on_light_1000_default_with_friction() {
 /// Case 12, heavy on light under the other methods, pinned failures over 5 s. Sequential
 /// impulses (10 iterations) and propagation let the heavy box fall into or through the light
 /// one (penetration above 0.9 m for both ratios); propagation, which has no position
-/// correction, lets it sink in (above 0.9 m at both ratios until its impacts were resolved in
-/// time order within a sweep; since, 0.79 m at 100:1 and 3.9 cm at 1000:1, pinned above 0.5 m
-/// and 2 cm, seven times the soft methods' sink); the soft step squeezes the light box out (the
+/// correction, lets the pair sink in: the heavy box into the light one plus the light one into
+/// the ground, 1.01 m at 100:1 and 1.00 m at 1000:1, pinned above 0.5 m (each step's sandwich
+/// of e = 0 contacts passes the approach back and forth a sweep at a time and stops at the
+/// sweep bound; where the rest of it goes depends on which contact is resolved last: into the
+/// light box 0.79 m at 100:1 and 3.9 cm at 1000:1 before the events were solved exactly, the
+/// rest into the ground); the soft step squeezes the light box out (the
 /// heavy box ends on the ground, penetration above 0.9 m); Jacobi with Baumgarte launches the
 /// heavy box off the light one (the light box ends above its start: negative ground
 /// penetration never recovered, largest speed above 5 m/s).
@@ -446,9 +449,12 @@ fn heavy_on_light_other_methods_fail() {
             let (pen, _, _, _, _) = heavy_on_light(app(60.0, method), ratio, 10.0);
             assert!(pen > 0.9, "{method:?} {ratio}: penetration {pen}");
         }
-        let (pen, _, _, _, _) = heavy_on_light(app(60.0, SolverMethod::Propagation), ratio, 10.0);
-        let pinned = if ratio == 100.0 { 0.5 } else { 0.02 };
-        assert!(pen > pinned, "Propagation {ratio}: penetration {pen}");
+        let (pen, ground, _, _, _) =
+            heavy_on_light(app(60.0, SolverMethod::Propagation), ratio, 10.0);
+        assert!(
+            pen + ground > 0.5,
+            "Propagation {ratio}: penetration {pen}, into the ground {ground}"
+        );
         let (_, _, vmax, _, _) = heavy_on_light(app(60.0, SolverMethod::Jacobi), ratio, 10.0);
         assert!(vmax > 5.0, "Jacobi {ratio}: largest speed {vmax}");
     }

@@ -37,6 +37,7 @@ pub(super) fn solve(
             config.restitution_threshold,
             gravity,
             Vec3::ZERO,
+            true,
             dt,
         ),
     );

@@ -18,6 +18,7 @@ pub mod contact;
 pub mod hybrid;
 pub mod iterative;
 pub mod jacobi;
+mod lcp;
 pub mod propagation;
 pub mod sequential_impulses;
 pub mod soft_step;
@@ -102,7 +103,14 @@ pub fn step(
                 bodies,
                 contacts,
                 &singles,
-                &propagation_params(config, config.velocity_tolerance, Vec3::ZERO, gravity, dt),
+                &propagation_params(
+                    config,
+                    config.velocity_tolerance,
+                    Vec3::ZERO,
+                    gravity,
+                    false,
+                    dt,
+                ),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -121,15 +129,19 @@ pub fn step(
 
 /// The impact phase's parameters from the settings: contacts approaching faster than
 /// `threshold` (m/s) are impacts; `gravity` is integrated after the pass (the hybrid method),
-/// `integrated_gravity` before it (the propagation method).
+/// `integrated_gravity` before it (the propagation method); `join_touching`: an inelastic event
+/// takes in the touching inelastic contacts of its bodies (the hybrid method).
 fn propagation_params(
     config: &SolverConfig,
     threshold: f32,
     gravity: Vec3,
     integrated_gravity: Vec3,
+    join_touching: bool,
     dt: f32,
 ) -> Propagation {
     Propagation {
+        join_touching,
+        touch: config.linear_slop,
         threshold,
         chain_threshold: config.velocity_tolerance,
         max_sweeps: config.max_propagation_sweeps,
