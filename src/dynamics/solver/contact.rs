@@ -142,7 +142,8 @@ impl ContactConstraint {
         self.ang_a = a.inverse_inertia * self.rn_a;
         self.ang_b = b.inverse_inertia * self.rn_b;
         let linear = a.inverse_mass + b.inverse_mass;
-        let angular = self.rn_a.dot(self.ang_a) + self.rn_b.dot(self.ang_b);
+        let terms = [self.rn_a.dot(self.ang_a), self.rn_b.dot(self.ang_b)];
+        let angular = terms[0] + terms[1];
         // Relative 1e-7 is f32 rounding of r x n for r parallel to n: treat it as exactly zero.
         // A turning kinematic body cannot be turned by the contact (no angular term in K), but
         // its rotation still moves the contact point: `w . (r x n)` must stay in the normal
@@ -160,10 +161,7 @@ impl ContactConstraint {
             self.ang_b = Vec3::ZERO;
         }
         let k = if self.angular {
-            row_inverse_mass(
-                [a.inverse_mass, b.inverse_mass],
-                [self.rn_a.dot(self.ang_a), self.rn_b.dot(self.ang_b)],
-            )
+            row_inverse_mass([a.inverse_mass, b.inverse_mass], terms)
         } else {
             linear
         };
