@@ -150,6 +150,61 @@ pub fn row_inverse_mass(linear: [f32; 2], angular: [f32; 2]) -> f32 {
     (linear[0] + linear[1]) + (angular[0] + angular[1])
 }
 
+/// The impulse a row needs to bring its normal velocity from `v_n` to `target`, in the
+/// prepared form the solver runs: `j = (target - v_n) / K`, with `normal_mass = 1/K` (from
+/// [`row_inverse_mass`]). With `target = -e v_n` it is the seed formula `j = -(1 + e) v_n / K`
+/// ([`collision_impulse`]); the solver's rows pass the velocity they must reach (a restitution
+/// target, a speculative gap's closing speed, or 0 to stop an approach), and clamp the
+/// accumulated impulse to push only.
+///
+/// # Examples
+///
+/// ```
+/// use impact3d::impulse::{row_impulse, row_inverse_mass};
+///
+/// // Two unit masses approaching at 2 m/s, e = 1: j = -(1 + 1)(-2) / 2 = 2.
+/// let normal_mass = 1.0 / row_inverse_mass([1.0, 1.0], [0.0, 0.0]);
+/// assert_eq!(row_impulse(normal_mass, -2.0, 2.0), 2.0);
+/// ```
+#[inline]
+pub fn row_impulse(normal_mass: f32, normal_velocity: f32, target: f32) -> f32 {
+    normal_mass * (target - normal_velocity)
+}
+
+/// Applies a row's impulse to one body, in the prepared form the solver runs: the linear
+/// part `v += impulse / m` (`impulse` is `+j n` for B, `-j n` for A, or the impulse along a
+/// held support's free direction), and, where the row has angular terms, the angular part
+/// `w += j I^-1 (r x n)` from the row's stored `I^-1 (r x n)` (`turn = (+j or -j, I^-1 (r x
+/// n))`: the seed's `w' = w -/+ I^-1 (r x j n)` with the `r x n` computed once per row).
+/// `linear: None` leaves the linear velocity untouched (a body held wholly along the normal).
+///
+/// # Examples
+///
+/// ```
+/// use bevy::math::Vec3;
+/// use impact3d::impulse::apply_row_impulse;
+///
+/// // j = 2 along +x on a 0.5 kg body, with I^-1 (r x n) = (0, 0, 3): dv = 4 x, dw = 6 z.
+/// let (mut v, mut w) = (Vec3::ZERO, Vec3::ZERO);
+/// apply_row_impulse(&mut v, &mut w, 2.0, Some(2.0 * Vec3::X), Some((2.0, Vec3::Z * 3.0)));
+/// assert_eq!((v, w), (Vec3::X * 4.0, Vec3::Z * 6.0));
+/// ```
+#[inline]
+pub fn apply_row_impulse(
+    linear_velocity: &mut Vec3,
+    angular_velocity: &mut Vec3,
+    inverse_mass: f32,
+    linear: Option<Vec3>,
+    turn: Option<(f32, Vec3)>,
+) {
+    if let Some(impulse) = linear {
+        *linear_velocity += inverse_mass * impulse;
+    }
+    if let Some((j, angular_response)) = turn {
+        *angular_velocity += j * angular_response;
+    }
+}
+
 /// The scalar impulse `j = -(1 + e) v_n / K` for one contact (see the module docs).
 ///
 /// It is the formula alone: positive for approaching bodies, negative for separating ones, and

@@ -14,7 +14,7 @@ use super::iterative::{Settling, Sweep};
 use super::propagation::propagate;
 use super::soft_step::{Resting, Softness, soft_substeps};
 use super::{SolverConfig, SolverStats, propagation_params};
-use crate::impulse::row_inverse_mass;
+use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
 /// The hybrid method's solve of one step (see [`super::step`]): the impact phase, then the
 /// resting phase over the manifolds as blocks in shock order (or only gravity and integration
@@ -972,18 +972,20 @@ fn apply_response(c: &ContactConstraint, bodies: &mut [SolverBody], impulse: f32
         r.a.direction.unwrap_or(c.normal),
         r.b.direction.unwrap_or(c.normal),
     );
-    if dir_a != Vec3::ZERO {
-        a.linear_velocity -= a.inverse_mass * (impulse * dir_a);
-    }
-    if c.angular && r.a.angular > 0.0 {
-        a.angular_velocity -= (r.a.angular * impulse) * c.ang_a;
-    }
-    if dir_b != Vec3::ZERO {
-        b.linear_velocity += b.inverse_mass * (impulse * dir_b);
-    }
-    if c.angular && r.b.angular > 0.0 {
-        b.angular_velocity += (r.b.angular * impulse) * c.ang_b;
-    }
+    apply_row_impulse(
+        &mut a.linear_velocity,
+        &mut a.angular_velocity,
+        a.inverse_mass,
+        (dir_a != Vec3::ZERO).then(|| -(impulse * dir_a)),
+        (c.angular && r.a.angular > 0.0).then(|| (-(r.a.angular * impulse), c.ang_a)),
+    );
+    apply_row_impulse(
+        &mut b.linear_velocity,
+        &mut b.angular_velocity,
+        b.inverse_mass,
+        (dir_b != Vec3::ZERO).then(|| impulse * dir_b),
+        (c.angular && r.b.angular > 0.0).then_some((r.b.angular * impulse, c.ang_b)),
+    );
 }
 
 /// Whether a manifold's soft tilt holds its load up with [`TILT_MARGIN`] to spare (see

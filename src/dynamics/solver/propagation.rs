@@ -18,6 +18,7 @@ use bevy::math::Vec3;
 use super::body::{Motion, SolverBody};
 use super::contact::ContactConstraint;
 use super::lcp::{self, DenseSolve};
+use crate::impulse::row_impulse;
 
 /// What a propagation pass did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -821,7 +822,7 @@ fn resolve_event(
                 continue;
             }
             let vn = c.normal_velocity(bodies);
-            let new = (*accumulated - c.normal_mass * (vn - *target)).max(0.0);
+            let new = (*accumulated + row_impulse(c.normal_mass, vn, *target)).max(0.0);
             let delta = new - *accumulated;
             if delta != 0.0 {
                 *accumulated = new;

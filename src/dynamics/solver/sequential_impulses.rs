@@ -4,6 +4,8 @@
 
 use bevy::prelude::*;
 
+use crate::impulse::row_impulse;
+
 use super::body::{Motion, SolverBody, integrate_positions, integrate_velocities};
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::iterative::{Settling, Sweep};
@@ -258,7 +260,7 @@ pub fn sequential_sweep(
         }
         let vn = c.normal_velocity(bodies);
         let target = rows.target(c, bodies, arrivals[i].bounce);
-        let new = (c.normal_impulse + c.normal_mass * (target - vn)).max(0.0);
+        let new = (c.normal_impulse + row_impulse(c.normal_mass, vn, target)).max(0.0);
         settling.accept(c, i, new, bodies, &mut largest);
     }
     Sweep {

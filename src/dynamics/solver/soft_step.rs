@@ -4,6 +4,8 @@
 
 use bevy::prelude::*;
 
+use crate::impulse::row_impulse;
+
 use super::body::{SolverBody, integrate_positions, integrate_velocities};
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::hybrid::{Block, ManifoldSolve, manifold_sweep};
@@ -258,7 +260,7 @@ pub fn apply_restitution(
         let mut largest = 0.0f32;
         for c in contacts.iter_mut().filter(|c| active(c)) {
             let vn = c.normal_velocity(bodies);
-            let impulse = -c.normal_mass * (vn + c.restitution * c.approach_velocity);
+            let impulse = row_impulse(c.normal_mass, vn, -(c.restitution * c.approach_velocity));
             let new = (c.normal_impulse + impulse).max(0.0);
             let delta = new - c.normal_impulse;
             if delta != 0.0 {
