@@ -123,13 +123,18 @@ impl ContactConstraint {
     /// Derives the two tangent rows from the anchors and `tangents`: `I^-1 (r x t)` for each
     /// body and tangent, and the effective masses along the tangents.
     pub fn prepare_tangent_rows(&mut self, a: &SolverBody, b: &SolverBody) {
-        let linear = a.inverse_mass + b.inverse_mass;
         for k in 0..2 {
             let t = self.tangents[k];
             let (ra_t, rb_t) = (self.anchor_a.cross(t), self.anchor_b.cross(t));
             self.tangent_ang[0][k] = a.inverse_inertia * ra_t;
             self.tangent_ang[1][k] = b.inverse_inertia * rb_t;
-            let kt = linear + ra_t.dot(self.tangent_ang[0][k]) + rb_t.dot(self.tangent_ang[1][k]);
+            let kt = row_inverse_mass(
+                [a.inverse_mass, b.inverse_mass],
+                [
+                    ra_t.dot(self.tangent_ang[0][k]),
+                    rb_t.dot(self.tangent_ang[1][k]),
+                ],
+            );
             self.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
         }
     }

@@ -1097,9 +1097,12 @@ fn solve_block(
         // Point by point, the rows do not use it.
         _ if pointwise => 0.0,
         (Some(soft), n) if n > 0 => {
-            let n = n as f32;
-            let sum = n * n * linear + fa * rn_a.dot(ang_a) + fb * rn_b.dot(ang_b);
-            let mut k = sum / (n * n);
+            let n2 = (n * n) as f32;
+            let sum = row_inverse_mass(
+                [n2 * linear_a, n2 * linear_b],
+                [fa * rn_a.dot(ang_a), fb * rn_b.dot(ang_b)],
+            );
+            let mut k = sum / n2;
             if block.load > 0.0 {
                 k = k.min(1.0 / block.load);
             }
