@@ -130,12 +130,16 @@ pub fn inverse_effective_mass(a: &ImpulseBody, b: &ImpulseBody, point: Vec3, nor
 /// ```
 ///
 /// with `linear` the two inverse masses and `angular` the two angular terms (zero for a row
-/// whose lever arms vanish). Every row of the solver gets its `K` here
-/// ([`prepare_normal_row`](crate::dynamics::solver::ContactConstraint::prepare_normal_row),
-/// Jacobi's mass splitting, the hybrid method's manifold blocks); where a method scales a
-/// body's response (Jacobi splits a body's mass among its contacts, the hybrid method holds a
-/// support in part), it passes that body's two terms scaled. [`inverse_effective_mass`] is this
-/// with the terms of two [`ImpulseBody`]s.
+/// whose lever arms vanish). Every `K` of the solver is computed here: the normal rows
+/// ([`prepare_normal_row`](crate::dynamics::solver::ContactConstraint::prepare_normal_row)),
+/// the friction rows (with the tangent in place of `n`), Jacobi's mass splitting, the hybrid
+/// method's manifold blocks (each row's `K`, the block's mean `K`, and a support's own side
+/// when its hold is computed); where a method scales a body's response (Jacobi splits a body's
+/// mass among its contacts, the hybrid method holds a support in part), it passes that body's
+/// two terms scaled. [`inverse_effective_mass`] is this with the terms of two
+/// [`ImpulseBody`]s. (The exact solve of an inelastic event, `solver/lcp.rs`, builds the
+/// whole Delassus matrix in f64, whose diagonal is this `K` and whose other entries couple
+/// two rows: the one place the formula is generalised rather than called.)
 ///
 /// # Examples
 ///

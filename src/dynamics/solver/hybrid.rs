@@ -419,7 +419,11 @@ fn support_holds(
         } else {
             let r = centroid / points as f32 - support_body.position;
             let rn = r.cross(normal);
-            let k_lower = support_body.inverse_mass + rn.dot(support_body.inverse_inertia * rn);
+            // The support's own side of `K` (the other side is not part of the chain).
+            let k_lower = row_inverse_mass(
+                [support_body.inverse_mass, 0.0],
+                [rn.dot(support_body.inverse_inertia * rn), 0.0],
+            );
             let m_upper = 1.0 / bodies[upper].inverse_mass.max(f32::MIN_POSITIVE);
             1.0 / (1.0 + m_upper * (1.0 - block.hold) * k_lower)
         };
