@@ -101,24 +101,34 @@ pub(super) fn soft_substeps(
         integrate_velocities(bodies, gravity, h);
         if !skip {
             warm_start(bodies, contacts);
-            // Solve: the soft rows, pushing penetration out.
-            iterate(config.iterations.max(1), stats, || {
+            solve_rows(config.iterations.max(1), stats, || {
                 sweep(bodies, contacts, Some(soft), None).done(tolerance)
             });
         }
         integrate_positions(bodies, gravity, h);
         if !skip {
-            // Relax: rigid rows without push-out, removing the velocity the soft solve added.
             // In the hybrid method, the last relax pass leaves impacts that close after the
             // step to the next step's impact phase.
             let leave_impacts =
                 (hybrid && substep + 1 == n).then_some(config.restitution_threshold);
-            iterate(config.relax_iterations, stats, || {
+            relax(config.relax_iterations, stats, || {
                 sweep(bodies, contacts, None, leave_impacts).done(tolerance)
             });
         }
         store_impulses(contacts);
     }
+}
+
+/// Box2D's solve stage: up to `iterations` sweeps of the soft rows (`sweep`, given the
+/// softness), which push penetration out at the soft rate.
+fn solve_rows(iterations: u32, stats: &mut SolverStats, sweep: impl FnMut() -> bool) {
+    iterate(iterations, stats, sweep);
+}
+
+/// Box2D's relax stage: up to `iterations` sweeps of the rigid rows (`sweep`, without
+/// softness or push-out) after the positions moved, removing the velocity the soft solve added.
+fn relax(iterations: u32, stats: &mut SolverStats, sweep: impl FnMut() -> bool) {
+    iterate(iterations, stats, sweep);
 }
 
 /// Runs up to `iterations` sweeps (each counted in `stats`), stopping after the first that
