@@ -458,3 +458,60 @@ fn colliding_entities_hold_the_touching_set() {
     assert_eq!(set(&app, ground), sorted(vec![a, c]));
     assert_eq!(set(&app, c), vec![ground]);
 }
+
+/// A box resting on the ground inside a static sensor falls asleep as it would without it (a
+/// sensor's touch joins no island), and stays asleep, unmoved, when the sensor is despawned (a
+/// sensor held nothing up: losing it wakes no one); its `CollidingEntities` loses the sensor.
+#[test]
+fn a_sensor_neither_keeps_awake_nor_wakes() {
+    let mut app = app();
+    let ground = app
+        .world_mut()
+        .spawn((RigidBody::Static, Collider::half_space(Vec3::Y)))
+        .id();
+    let sensor = app
+        .world_mut()
+        .spawn((
+            RigidBody::Static,
+            Collider::cuboid(1.0, 1.0, 1.0),
+            Transform::from_xyz(0.0, 0.5, 0.0),
+            Sensor,
+        ))
+        .id();
+    let cube = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::cuboid(0.5, 0.5, 0.5),
+            Transform::from_xyz(0.0, 0.5, 0.0),
+            CollidingEntities::default(),
+        ))
+        .id();
+    let touching = |app: &App| {
+        let mut v: Vec<Entity> = app
+            .world()
+            .get::<CollidingEntities>(cube)
+            .unwrap()
+            .iter()
+            .copied()
+            .collect();
+        v.sort();
+        v
+    };
+    // Time to sleep is 0.5 s: asleep well within 1 s.
+    for _ in 0..60 {
+        app.update();
+    }
+    assert!(app.world().get::<Sleeping>(cube).is_some(), "asleep");
+    let mut both = vec![ground, sensor];
+    both.sort();
+    assert_eq!(touching(&app), both);
+    let rest = position(&app, cube);
+    app.world_mut().despawn(sensor);
+    for _ in 0..5 {
+        app.update();
+        assert!(app.world().get::<Sleeping>(cube).is_some(), "still asleep");
+    }
+    assert_eq!(position(&app, cube), rest);
+    assert_eq!(touching(&app), vec![ground]);
+}

@@ -34,6 +34,10 @@ pub struct ContactPair {
     workspace: Option<ContactManifoldsWorkspace>,
     /// The pair touched (a point within [`TOUCH_DISTANCE`], or any impulse) in the last step.
     pub touching: bool,
+    /// The pair was detect-only in the last step it was a candidate (a sensor in it, or no
+    /// dynamic body: contacts never solved; see
+    /// [`CandidatePairs::detect_only`](crate::pipeline::CandidatePairs::detect_only)).
+    pub detect_only: bool,
     /// The length, m, of one unit of `manifolds`' points, distances and sub-shape poses: the
     /// length unit the pair's contacts were generated in (see [`ContactPair::update`]).
     unit: f32,
@@ -47,6 +51,7 @@ impl ContactPair {
             manifolds: Vec::new(),
             workspace: None,
             touching: false,
+            detect_only: false,
             unit: 1.0,
         }
     }

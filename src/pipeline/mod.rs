@@ -175,24 +175,43 @@ impl PhysicsState {
         self.bodies[k].motion == Motion::Dynamic || self.asleep[k].is_some()
     }
 
-    /// Whether the overlapping bodies `i` and `j` make a candidate pair and, if so, whether it
-    /// is only detected (`Some(true)`: contacts and touching state, no solver rows) or solved
-    /// (`Some(false)`). Their layers must interact. A pair with a dynamic or sleeping body is
-    /// solved unless a sensor is in it. A pair of two non-dynamic bodies is detected only when
-    /// one of them asks for reports (sensor, events or colliding entities) and one of them
-    /// is kinematic or a sensor (two plain static bodies never pair).
-    fn pair_kind(&self, i: usize, j: usize) -> Option<bool> {
+    /// Whether bodies `i` and `j`, if their boxes overlap, make a candidate pair, and of which
+    /// kind (see [`CandidatePairs::set`], which keeps the pairs this accepts). Their layers must
+    /// interact. A pair with a dynamic or sleeping body is [`PairKind::Solved`] unless a sensor
+    /// is in it. A pair of two non-dynamic bodies is [`PairKind::DetectOnly`] when one of them
+    /// asks for reports (sensor, events or colliding entities) and one of them is kinematic or a
+    /// sensor; otherwise (two plain static bodies, or nobody asking) it is not a pair.
+    ///
+    /// A broad phase that wakes sleeping bodies can ask this first: only a solved pair pushes.
+    pub fn pair_kind(&self, i: usize, j: usize) -> Option<PairKind> {
         if !self.layers[i].interacts_with(self.layers[j]) {
             return None;
         }
         let (ri, rj) = (self.reporting[i], self.reporting[j]);
         let sensor = ri.sensor() || rj.sensor();
+        let detect_only = if sensor {
+            PairKind::DetectOnly
+        } else {
+            PairKind::Solved
+        };
         if self.live(i) || self.live(j) {
-            return Some(sensor);
+            return Some(detect_only);
         }
         let kinematic = |k: usize| self.bodies[k].motion == Motion::Kinematic;
-        ((ri.any() || rj.any()) && (sensor || kinematic(i) || kinematic(j))).then_some(true)
+        ((ri.any() || rj.any()) && (sensor || kinematic(i) || kinematic(j)))
+            .then_some(PairKind::DetectOnly)
     }
+}
+
+/// What the step does with a candidate pair (see [`PhysicsState::pair_kind`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairKind {
+    /// Contacts found and solved: contact rows push the bodies apart.
+    Solved,
+    /// Contacts found for touching state and collision messages only, never solved: a
+    /// [`Sensor`](crate::collision::Sensor) is in the pair, or neither body is dynamic or
+    /// asleep.
+    DetectOnly,
 }
 
 /// The broad phase's output: the body pairs whose boxes overlap, for the narrow phase.
@@ -258,7 +277,7 @@ impl CandidatePairs {
         let mut keyed: Vec<Kept> = overlapping
             .into_iter()
             .filter_map(|(i, j)| {
-                let detect_only = state.pair_kind(i, j)?;
+                let detect_only = state.pair_kind(i, j)? == PairKind::DetectOnly;
                 let (ei, ej) = (state.entities[i], state.entities[j]);
                 Some(if ei < ej {
                     ((ei, ej), (i, j), detect_only)

@@ -46,7 +46,10 @@ pub fn update_narrow_phase(
     pairs.retain_candidates(&candidates.pairs, |p| {
         if p.touching {
             ended.push((p.a, p.b));
-            lost.extend([p.a, p.b]);
+            // A sensor's touch held nothing up: losing it wakes no one.
+            if !p.detect_only {
+                lost.extend([p.a, p.b]);
+            }
         }
     });
     rows.contacts.clear();
@@ -63,6 +66,7 @@ pub fn update_narrow_phase(
         .zip(&candidates.indices)
         .enumerate()
     {
+        pair.detect_only = candidates.detect_only[pair_index];
         if candidates.dormant[pair_index] {
             continue;
         }
