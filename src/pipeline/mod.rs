@@ -189,13 +189,12 @@ impl PhysicsState {
         }
         let (ri, rj) = (self.reporting[i], self.reporting[j]);
         let sensor = ri.sensor() || rj.sensor();
-        let detect_only = if sensor {
-            PairKind::DetectOnly
-        } else {
-            PairKind::Solved
-        };
         if self.live(i) || self.live(j) {
-            return Some(detect_only);
+            return Some(if sensor {
+                PairKind::DetectOnly
+            } else {
+                PairKind::Solved
+            });
         }
         let kinematic = |k: usize| self.bodies[k].motion == Motion::Kinematic;
         ((ri.any() || rj.any()) && (sensor || kinematic(i) || kinematic(j)))
