@@ -17,12 +17,15 @@ use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 
-pub use messages::{CollisionEnded, CollisionStarted, Impact};
+pub use messages::{CollisionEnd, CollisionEnded, CollisionStart, CollisionStarted, Impact};
 
 /// Everything a user of the plugin writes.
 pub mod prelude {
     pub use crate::PhysicsPlugins;
-    pub use crate::collision::Collider;
+    pub use crate::collision::{
+        Collider, CollidingEntities, CollisionEventsEnabled, CollisionLayers, LayerMask,
+        PhysicsLayer, Sensor,
+    };
     #[cfg(feature = "debug")]
     pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};
     pub use crate::dynamics::{
@@ -33,7 +36,9 @@ pub mod prelude {
     pub use crate::interpolation::{
         InterpolationConfig, InterpolationPlugin, TransformInterpolation,
     };
-    pub use crate::messages::{CollisionEnded, CollisionStarted, Impact};
+    pub use crate::messages::{
+        CollisionEnd, CollisionEnded, CollisionStart, CollisionStarted, Impact,
+    };
     pub use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 }
 

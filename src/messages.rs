@@ -23,14 +23,71 @@ pub struct Impact {
     pub impulse: f32,
 }
 
-/// Two colliders started touching in the last step.
+/// Two colliders started touching in the last step: `(a, b)`, `a < b`, one message per pair,
+/// for every pair the step tracks, no opt-in needed. (impact3d's own message, kept as it was;
+/// [`CollisionStart`] is avian3d's, sent only for bodies that ask for it and also triggered on
+/// them.)
 #[derive(Message, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CollisionStarted(pub Entity, pub Entity);
 
 /// Two colliders stopped touching in the last step (or one of them was despawned, lost its
-/// collider or was quarantined).
+/// collider or was quarantined, or the pair stopped being tracked: its layers no longer
+/// interact, or the opt-in that made the step track a pair of non-dynamic bodies was
+/// removed). `(a, b)`, `a < b`, for every pair, as [`CollisionStarted`].
 #[derive(Message, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CollisionEnded(pub Entity, pub Entity);
+
+/// Two colliders started touching in the last step (avian3d 0.7's event). Written as a message
+/// for each pair of which either body has
+/// [`CollisionEventsEnabled`](crate::collision::CollisionEventsEnabled) (`collider1 <
+/// collider2`), and triggered as an entity event on each body of the pair that has it, with
+/// that body as `collider1`, so an observer on either body hears of it:
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+///
+/// # let mut world = World::new();
+/// world
+///     .spawn((RigidBody::Static, Collider::cuboid(1.0, 1.0, 1.0), Sensor,
+///         CollisionEventsEnabled))
+///     .observe(|start: On<CollisionStart>| {
+///         println!("{} entered trigger {}", start.collider2, start.collider1);
+///     });
+/// ```
+///
+/// Pairs of every kind are reported, sensors and kinematic or static bodies included (see
+/// [`crate::collision::sensor`]). The collider is on its body's entity in impact3d, so
+/// `body1 == Some(collider1)` and `body2 == Some(collider2)`; the fields are avian's, where a
+/// collider can sit on a child of its body.
+#[derive(EntityEvent, Message, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CollisionStart {
+    /// The collider that started touching `collider2`; the event's target when observed.
+    #[event_target]
+    pub collider1: Entity,
+    /// The other collider.
+    pub collider2: Entity,
+    /// The body of `collider1` (itself).
+    pub body1: Option<Entity>,
+    /// The body of `collider2` (itself).
+    pub body2: Option<Entity>,
+}
+
+/// Two colliders stopped touching in the last step (or one of them left the step, as for
+/// [`CollisionEnded`]): avian3d 0.7's event, written and triggered as [`CollisionStart`] is.
+/// When `collider2` was despawned, only `collider1`'s observers hear of it.
+#[derive(EntityEvent, Message, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CollisionEnd {
+    /// The collider that stopped touching `collider2`; the event's target when observed.
+    #[event_target]
+    pub collider1: Entity,
+    /// The other collider.
+    pub collider2: Entity,
+    /// The body of `collider1` (itself).
+    pub body1: Option<Entity>,
+    /// The body of `collider2` (itself).
+    pub body2: Option<Entity>,
+}
 
 /// The step's [`Impact`]s from its solved rows (`keys`: each row's candidate pair, manifold
 /// and point in `pairs`): the rows that struck ([`ImpactMessages::Impacts`]), or every row

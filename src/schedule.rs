@@ -10,7 +10,7 @@
 //! | [`PhysicsSystems::Solve`] | gravity, impacts and resting contact by the chosen [`SolverMethod`](crate::dynamics::SolverMethod), position integration |
 //! | [`PhysicsSystems::WriteBack`] | `Transform`, `LinearVelocity`, `AngularVelocity` |
 //! | [`PhysicsSystems::Sleep`] | resting islands fall asleep; woken ones lose their marker |
-//! | [`PhysicsSystems::Messages`] | `Impact`, `CollisionStarted`, `CollisionEnded` |
+//! | [`PhysicsSystems::Messages`] | `Impact`, `CollisionStarted`, `CollisionEnded`; `CollisionStart` and `CollisionEnd` (messages and entity events) for bodies with `CollisionEventsEnabled`; `CollidingEntities` |
 
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};

@@ -1,25 +1,36 @@
-//! Colliders, the broad phase and the narrow phase.
+//! Colliders, collision layers, sensors, the broad phase and the narrow phase.
 
 pub mod broad_phase;
 pub mod collider;
+pub mod layers;
 pub mod narrow_phase;
+pub mod sensor;
 
 pub use collider::Collider;
+pub use layers::{CollisionLayers, LayerMask, PhysicsLayer};
 pub use narrow_phase::{ContactPair, ContactPairs};
+pub use sensor::{CollidingEntities, CollisionEventsEnabled, Sensor};
 
 use bevy::prelude::*;
 
-use crate::messages::{CollisionEnded, CollisionStarted};
+use crate::messages::{CollisionEnd, CollisionEnded, CollisionStart, CollisionStarted};
 
-/// Colliders and contact pairs: the [`ContactPairs`] resource and the `CollisionStarted` /
-/// `CollisionEnded` messages. The broad and narrow phase systems are
-/// [`crate::pipeline`]'s stages.
+/// Colliders and contact pairs: the [`ContactPairs`] resource, the `CollisionStarted` /
+/// `CollisionEnded` and `CollisionStart` / `CollisionEnd` messages, and the layer and sensor
+/// components. The broad and narrow phase systems are [`crate::pipeline`]'s stages.
 pub struct CollisionPlugin;
 
 impl Plugin for CollisionPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ContactPairs>()
             .add_message::<CollisionStarted>()
-            .add_message::<CollisionEnded>();
+            .add_message::<CollisionEnded>()
+            .add_message::<CollisionStart>()
+            .add_message::<CollisionEnd>()
+            .register_type::<CollisionLayers>()
+            .register_type::<LayerMask>()
+            .register_type::<Sensor>()
+            .register_type::<CollisionEventsEnabled>()
+            .register_type::<CollidingEntities>();
     }
 }

@@ -34,6 +34,10 @@ pub struct ContactPair {
     workspace: Option<ContactManifoldsWorkspace>,
     /// The pair touched (a point within [`TOUCH_DISTANCE`], or any impulse) in the last step.
     pub touching: bool,
+    /// The pair was detect-only in the last step it was a candidate (a sensor in it, or no
+    /// dynamic body: contacts never solved; see
+    /// [`CandidatePairs::detect_only`](crate::pipeline::CandidatePairs::detect_only)).
+    pub detect_only: bool,
     /// The length, m, of one unit of `manifolds`' points, distances and sub-shape poses: the
     /// length unit the pair's contacts were generated in (see [`ContactPair::update`]).
     unit: f32,
@@ -47,6 +51,7 @@ impl ContactPair {
             manifolds: Vec::new(),
             workspace: None,
             touching: false,
+            detect_only: false,
             unit: 1.0,
         }
     }
@@ -101,6 +106,17 @@ impl ContactPair {
                 &mut self.workspace,
             )
             .is_ok()
+    }
+
+    /// Forgets the pair's manifolds and parry's workspace, so that the next
+    /// [`update`](Self::update) computes them afresh. parry's manifolds are coherent: for a
+    /// small relative motion they move the points they have, keeping their features, which
+    /// holds while shapes barely touch but not through a deep overlap (a cube passing through
+    /// a sensor kept the features it entered with, and read 3 m deep when 12 mm clear on the
+    /// far side). Detect-only pairs, which overlap deeply, are recomputed this way each step.
+    pub fn reset(&mut self) {
+        self.manifolds.clear();
+        self.workspace = None;
     }
 
     /// World contact points of the pair: `(manifold, point index, world point, world normal
@@ -431,12 +447,15 @@ impl ContactPairs {
     }
 
     /// Sets each candidate pair's touching state from the step's solved rows: a pair touches
-    /// when a row is within `touch` (m) or pushed in the step; a `dormant` pair keeps its
-    /// state. Pairs that start and stop touching are pushed to `started` and `ended`.
+    /// when a row is within `touch` (m) or pushed in the step, or (a pair without rows: a
+    /// detect-only pair) when it is among `detected`; a `dormant` pair keeps its state. Pairs
+    /// that start and stop touching are pushed to `started` and `ended`.
+    #[allow(clippy::too_many_arguments)]
     pub fn update_touching(
         &mut self,
         rows: &[ContactConstraint],
         keys: &[(u32, u32, u32)],
+        detected: &[u32],
         dormant: &[bool],
         touch: f32,
         started: &mut Vec<(Entity, Entity)>,
@@ -452,6 +471,9 @@ impl ContactPairs {
             if c.separation <= touch || c.total_impulse > 0.0 {
                 touching[p as usize] = true;
             }
+        }
+        for &p in detected {
+            touching[p as usize] = true;
         }
         for (pair, now) in self.pairs.iter_mut().zip(touching) {
             match (pair.touching, now) {

@@ -19,6 +19,8 @@ use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
 use crate::collision::broad_phase::{is_unbounded, overlaps, sort_by_lower_bound, sweep_axis};
+use crate::collision::layers::CollisionLayers;
+use crate::collision::sensor::Reporting;
 use crate::dynamics::solver::{Motion, SolverBody};
 
 /// Marks a sleeping body. Insert `Sleeping::default()` to put a body to sleep on its own;
@@ -181,6 +183,10 @@ pub struct Sleeper {
     pub restitution: f32,
     /// Friction coefficient, clamped.
     pub friction: f32,
+    /// Its collision layers.
+    pub layers: CollisionLayers,
+    /// What it asks the step to report.
+    pub reporting: Reporting,
     /// Bounding radius about the centre of mass, m.
     pub radius: f32,
 }
@@ -399,6 +405,8 @@ mod tests {
             pose: Pose::from_parts(p, Quat::IDENTITY),
             restitution: 0.0,
             friction: 0.0,
+            layers: CollisionLayers::DEFAULT,
+            reporting: Reporting::default(),
             radius: r,
         };
         let mut set = SleepingSet::default();

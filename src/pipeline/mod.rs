@@ -34,7 +34,9 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
+use crate::collision::layers::CollisionLayers;
 use crate::collision::narrow_phase::{TOUCH_DISTANCE, UnitShapes};
+use crate::collision::sensor::Reporting;
 use crate::dynamics::sleep::{SleepConfig, SleepingSet};
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
@@ -67,6 +69,13 @@ pub struct PhysicsState {
     poses: Vec<Pose>,
     restitution: Vec<f32>,
     friction: Vec<f32>,
+    /// Each body's collision layers ([`CollisionLayers::DEFAULT`] without the component).
+    layers: Vec<CollisionLayers>,
+    /// What each body asks the step to report (sensor, events, colliding entities).
+    reporting: Vec<Reporting>,
+    /// Scratch: the bodies that lost their `CollisionLayers` or `Sensor` since the last step,
+    /// sorted (they are active: pairs they had been filtered from may start).
+    layers_removed: Vec<Entity>,
     /// How far each body can move in one step, m: `|v| dt + |w| dt R`.
     reach: Vec<f32>,
     /// How far rotation alone can carry a point of each body in one step, m: `|w| dt R`, zero
@@ -149,11 +158,59 @@ impl PhysicsState {
         &self.active
     }
 
+    /// Each body's collision layers, in the order of [`entities`](Self::entities)
+    /// ([`CollisionLayers::DEFAULT`] for a body without the component).
+    pub fn layers(&self) -> &[CollisionLayers] {
+        &self.layers
+    }
+
+    /// What each body asks the step to report, in the order of [`entities`](Self::entities).
+    pub fn reporting(&self) -> &[Reporting] {
+        &self.reporting
+    }
+
     /// Body `k` takes part in contacts: dynamic, or asleep (a sleeping body's pairs are kept, so
     /// sleep does not end collisions).
     fn live(&self, k: usize) -> bool {
         self.bodies[k].motion == Motion::Dynamic || self.asleep[k].is_some()
     }
+
+    /// Whether bodies `i` and `j`, if their boxes overlap, make a candidate pair, and of which
+    /// kind (see [`CandidatePairs::set`], which keeps the pairs this accepts). Their layers must
+    /// interact. A pair with a dynamic or sleeping body is [`PairKind::Solved`] unless a sensor
+    /// is in it. A pair of two non-dynamic bodies is [`PairKind::DetectOnly`] when one of them
+    /// asks for reports (sensor, events or colliding entities) and one of them is kinematic or a
+    /// sensor; otherwise (two plain static bodies, or nobody asking) it is not a pair.
+    ///
+    /// A broad phase that wakes sleeping bodies can ask this first: only a solved pair pushes.
+    pub fn pair_kind(&self, i: usize, j: usize) -> Option<PairKind> {
+        if !self.layers[i].interacts_with(self.layers[j]) {
+            return None;
+        }
+        let (ri, rj) = (self.reporting[i], self.reporting[j]);
+        let sensor = ri.sensor() || rj.sensor();
+        if self.live(i) || self.live(j) {
+            return Some(if sensor {
+                PairKind::DetectOnly
+            } else {
+                PairKind::Solved
+            });
+        }
+        let kinematic = |k: usize| self.bodies[k].motion == Motion::Kinematic;
+        ((ri.any() || rj.any()) && (sensor || kinematic(i) || kinematic(j)))
+            .then_some(PairKind::DetectOnly)
+    }
+}
+
+/// What the step does with a candidate pair (see [`PhysicsState::pair_kind`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairKind {
+    /// Contacts found and solved: contact rows push the bodies apart.
+    Solved,
+    /// Contacts found for touching state and collision messages only, never solved: a
+    /// [`Sensor`](crate::collision::Sensor) is in the pair, or neither body is dynamic or
+    /// asleep.
+    DetectOnly,
 }
 
 /// The broad phase's output: the body pairs whose boxes overlap, for the narrow phase.
@@ -166,6 +223,9 @@ pub struct CandidatePairs {
     /// Per pair: neither body is awake and dynamic (a sleeping body with a sleeping or static
     /// one), so the pair keeps its manifolds and touching state without a narrow phase.
     dormant: Vec<bool>,
+    /// Per pair: its contacts are only detected (touching state and collision messages), never
+    /// solved: a sensor is in it, or neither body is dynamic or asleep.
+    detect_only: Vec<bool>,
 }
 
 impl CandidatePairs {
@@ -179,42 +239,71 @@ impl CandidatePairs {
         &self.indices
     }
 
-    /// Per pair: neither body is awake and dynamic, so the pair keeps its manifolds and
-    /// touching state without a narrow phase.
+    /// Per pair: neither body is awake and dynamic (for a detect-only pair: both are static
+    /// or asleep, and neither changed), so the pair keeps its manifolds and touching state
+    /// without a narrow phase.
     pub fn dormant(&self) -> &[bool] {
         &self.dormant
     }
 
+    /// Per pair: its contacts are only detected, for touching state and collision messages,
+    /// never solved (no contact rows): a [`Sensor`](crate::collision::Sensor) is in it, or
+    /// neither body is dynamic or asleep (a pair found because a body asked for reports).
+    pub fn detect_only(&self) -> &[bool] {
+        &self.detect_only
+    }
+
     /// Sets the candidates from overlapping body index pairs of `state` (each pair once, in
-    /// any order and either way round): keeps the pairs with a dynamic or sleeping body, and
-    /// sorts them by entity. What a broad phase, the built-in one or a replacement, ends
-    /// with.
+    /// any order and either way round), and sorts them by entity. What a broad phase, the
+    /// built-in one or a replacement, ends with; the one place pairs are filtered:
+    ///
+    /// - the bodies' [`CollisionLayers`] must interact
+    ///   ([`CollisionLayers::interacts_with`]);
+    /// - a pair with a dynamic or sleeping body is kept, solved unless a
+    ///   [`Sensor`](crate::collision::Sensor) is in it;
+    /// - a pair of non-dynamic bodies (kinematic with static or kinematic, or a static sensor
+    ///   with a static body) is kept, detect-only, when either body has a `Sensor`,
+    ///   [`CollisionEventsEnabled`](crate::collision::CollisionEventsEnabled) or
+    ///   [`CollidingEntities`](crate::collision::CollidingEntities); otherwise it is dropped,
+    ///   so it costs nothing past the broad phase.
     pub fn set(
         &mut self,
         state: &PhysicsState,
         overlapping: impl IntoIterator<Item = (usize, usize)>,
     ) {
-        let mut keyed: Vec<((Entity, Entity), (usize, usize))> = overlapping
+        /// A kept pair: its entities, its body indices in their order, detect-only.
+        type Kept = ((Entity, Entity), (usize, usize), bool);
+        let mut keyed: Vec<Kept> = overlapping
             .into_iter()
-            .filter(|&(i, j)| state.live(i) || state.live(j))
-            .map(|(i, j)| {
+            .filter_map(|(i, j)| {
+                let detect_only = state.pair_kind(i, j)? == PairKind::DetectOnly;
                 let (ei, ej) = (state.entities[i], state.entities[j]);
-                if ei < ej {
-                    ((ei, ej), (i, j))
+                Some(if ei < ej {
+                    ((ei, ej), (i, j), detect_only)
                 } else {
-                    ((ej, ei), (j, i))
-                }
+                    ((ej, ei), (j, i), detect_only)
+                })
             })
             .collect();
-        keyed.sort_unstable_by_key(|(k, _)| *k);
+        keyed.sort_unstable_by_key(|(k, _, _)| *k);
         self.pairs.clear();
         self.indices.clear();
         self.dormant.clear();
-        for (k, (i, j)) in keyed {
+        self.detect_only.clear();
+        for (k, (i, j), detect_only) in keyed {
             self.pairs.push(k);
             self.indices.push((i, j));
-            let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
-            self.dormant.push(!awake(i) && !awake(j));
+            let dormant = if detect_only {
+                // A detect-only pair may have a kinematic body (moving at its velocity) or a
+                // static one that changed: it is looked at unless nothing in it can move.
+                let still = |k: usize| state.bodies[k].motion == Motion::Static && !state.active[k];
+                still(i) && still(j)
+            } else {
+                let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
+                !awake(i) && !awake(j)
+            };
+            self.dormant.push(dormant);
+            self.detect_only.push(detect_only);
         }
     }
 }
@@ -228,6 +317,9 @@ pub struct ContactRows {
     pair_ranges: Vec<Range<usize>>,
     /// For each contact: (pair, manifold, point) in [`ContactPairs`](crate::collision::ContactPairs).
     keys: Vec<(u32, u32, u32)>,
+    /// The detect-only candidate pairs found touching in the step, as indices of
+    /// [`CandidatePairs::pairs`], ascending.
+    detected: Vec<u32>,
 }
 
 impl ContactRows {
@@ -245,6 +337,13 @@ impl ContactRows {
     /// [`ContactPairs`](crate::collision::ContactPairs).
     pub fn keys(&self) -> &[(u32, u32, u32)] {
         &self.keys
+    }
+
+    /// The detect-only candidate pairs (see [`CandidatePairs::detect_only`]) whose contacts
+    /// touch in the step, as indices of [`CandidatePairs::pairs`], ascending: they have no
+    /// rows, so their touching state comes from here.
+    pub fn detected(&self) -> &[u32] {
+        &self.detected
     }
 }
 
@@ -415,6 +514,8 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
     state.poses.push(s.pose);
     state.restitution.push(s.restitution);
     state.friction.push(s.friction);
+    state.layers.push(s.layers);
+    state.reporting.push(s.reporting);
     state.reach.push(0.0);
     state.spin_reach.push(0.0);
     state.aabbs.push(state.sleepers.aabb(i));

@@ -46,12 +46,16 @@ pub fn update_narrow_phase(
     pairs.retain_candidates(&candidates.pairs, |p| {
         if p.touching {
             ended.push((p.a, p.b));
-            lost.extend([p.a, p.b]);
+            // A sensor's touch held nothing up: losing it wakes no one.
+            if !p.detect_only {
+                lost.extend([p.a, p.b]);
+            }
         }
     });
     rows.contacts.clear();
     rows.pair_ranges.clear();
     rows.keys.clear();
+    rows.detected.clear();
     // Contacts are generated with the shapes scaled to the length unit (see
     // `ContactPair::update`); a pair with a shape parry cannot scale keeps metres.
     let unit = binary_unit(state.settings.length_unit);
@@ -62,6 +66,7 @@ pub fn update_narrow_phase(
         .zip(&candidates.indices)
         .enumerate()
     {
+        pair.detect_only = candidates.detect_only[pair_index];
         if candidates.dormant[pair_index] {
             continue;
         }
@@ -80,6 +85,24 @@ pub fn update_narrow_phase(
             Some((a, b)) => (a.as_ref(), b.as_ref(), unit),
             None => (shape_a, shape_b, 1.0),
         };
+        if candidates.detect_only[pair_index] {
+            // Detected, never solved (a sensor, or no dynamic body): the manifolds at the start
+            // poses, within the margin, for the touching state; no rows. Computed afresh (see
+            // `ContactPair::reset`): such pairs overlap deeply.
+            pair.reset();
+            if !pair.update(pose_a, unit_a, pose_b, unit_b, margin, pair_unit) {
+                pair.manifolds.clear();
+                continue;
+            }
+            let touch = state.settings.touch_distance;
+            if pair
+                .world_points(pose_a, pose_b)
+                .any(|(_, _, _, _, dist)| dist <= touch)
+            {
+                rows.detected.push(pair_index as u32);
+            }
+            continue;
+        }
         // Speculative contacts (a prediction wider than the margin) only for pairs that really
         // meet within the step: a near miss of fast bodies is a miss (no ghost collision).
         // Gravity bends a path by at most |g| dt^2 / 2 from the straight line the cast follows.

@@ -8,7 +8,10 @@ use bevy::prelude::*;
 use parry3d::bounding_volume::BoundingVolume;
 use parry3d::math::Pose;
 
-use crate::collision::Collider;
+use crate::collision::sensor::Reporting;
+use crate::collision::{
+    Collider, CollidingEntities, CollisionEventsEnabled, CollisionLayers, Sensor,
+};
 use crate::dynamics::sleep::{SleepConfig, Sleeper, Sleeping};
 use crate::dynamics::solver::{Motion, SolverBody};
 use crate::dynamics::validation::{
@@ -54,6 +57,10 @@ pub struct BodyData {
     name: Option<&'static Name>,
     quarantined: Option<&'static Quarantined>,
     sleeping: Option<Ref<'static, Sleeping>>,
+    layers: Option<Ref<'static, CollisionLayers>>,
+    sensor: Option<Ref<'static, Sensor>>,
+    events: Has<CollisionEventsEnabled>,
+    colliding: Has<CollidingEntities>,
 }
 
 /// Change filter of a sleeping body: any of the components the prepare stage reads changed
@@ -72,6 +79,8 @@ type Disturbed = Or<(
     Changed<Density>,
     Changed<ComputedMass>,
     Changed<LockedAxes>,
+    Changed<CollisionLayers>,
+    Changed<Sensor>,
 )>;
 
 /// The settings resources and the clock a step reads.
@@ -111,6 +120,8 @@ pub struct BodyRemovals<'w, 's> {
     density: RemovedComponents<'w, 's, Density>,
     computed: RemovedComponents<'w, 's, ComputedMass>,
     locked: RemovedComponents<'w, 's, LockedAxes>,
+    layers: RemovedComponents<'w, 's, CollisionLayers>,
+    sensor: RemovedComponents<'w, 's, Sensor>,
 }
 
 /// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
@@ -141,6 +152,13 @@ pub fn prepare_bodies(
     );
     let sleep_enabled = state.settings.sleep.enabled;
     begin_step(state);
+    // Bodies that lost their layers or sensor marker may now pair with bodies they were kept
+    // from: they are active in this step.
+    state.layers_removed.clear();
+    state.layers_removed.extend(removals.layers.read());
+    state.layers_removed.extend(removals.sensor.read());
+    state.layers_removed.sort_unstable();
+    state.layers_removed.dedup();
     for mut item in awake.iter_mut() {
         if let Gathered::Quarantined = gather_body(state, &mut commands, &ticks, &mut item) {
             state.departed.push(item.entity);
@@ -175,6 +193,8 @@ fn begin_step(state: &mut PhysicsState) {
     state.poses.clear();
     state.restitution.clear();
     state.friction.clear();
+    state.layers.clear();
+    state.reporting.clear();
     state.reach.clear();
     state.spin_reach.clear();
     state.aabbs.clear();
@@ -212,6 +232,7 @@ fn sleepers_to_read(
         removals.density.read().collect(),
         removals.computed.read().collect(),
         removals.locked.read().collect(),
+        state.layers_removed.clone(),
     ];
     for entity in removed.into_iter().flatten() {
         if state.sleepers.get(entity).is_some() {
@@ -260,6 +281,8 @@ fn gather_sleeper(
                     pose: state.poses[i],
                     restitution: state.restitution[i],
                     friction: state.friction[i],
+                    layers: state.layers[i],
+                    reporting: state.reporting[i],
                     radius: state.radius[i],
                 },
                 state.step,
@@ -437,6 +460,20 @@ fn gather_body(
         item.friction.as_deref().map(|f| f.0),
         f32::INFINITY,
     ));
+    state
+        .layers
+        .push(item.layers.as_deref().copied().unwrap_or_default());
+    let mut reporting = Reporting::default();
+    for (has, bit) in [
+        (item.sensor.is_some(), Reporting::SENSOR),
+        (item.events, Reporting::EVENTS),
+        (item.colliding, Reporting::COLLIDING),
+    ] {
+        if has {
+            reporting.0 |= bit;
+        }
+    }
+    state.reporting.push(reporting);
     state.reach.push(reach);
     state
         .spin_reach
@@ -456,7 +493,11 @@ fn gather_body(
             || item.collider.is_changed()
             || item.body.as_ref().is_some_and(|b| b.is_changed())
             || item.quarantined.is_some()
-            || item.sleeping.as_ref().is_some_and(|m| m.is_added()),
+            || item.sleeping.as_ref().is_some_and(|m| m.is_added())
+            || item.layers.as_ref().is_some_and(|l| l.is_changed())
+            || item.sensor.as_ref().is_some_and(|s| s.is_added())
+            || (!state.layers_removed.is_empty()
+                && state.layers_removed.binary_search(&entity).is_ok()),
     );
     state.radius.push(radius);
     state.asleep.push(asleep);

@@ -98,8 +98,10 @@ pub fn update_sleep(
             .candidates()
             .iter()
             .zip(candidates.indices())
-            .filter(|(pair, _)| pair.touching)
-            .map(|(_, &pair)| pair),
+            .zip(candidates.detect_only())
+            // A sensor's touch holds nothing up: it does not join islands.
+            .filter(|((pair, _), detect_only)| pair.touching && !**detect_only)
+            .map(|((_, &pair), _)| pair),
     );
     for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep)
         .into_iter()

@@ -82,7 +82,8 @@ fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs) {
     };
     let mut first: Vec<f32> = Vec::new();
     for (k, &(ia, ib)) in candidates.indices.iter().enumerate() {
-        if candidates.dormant[k] || !(fast(ia) || fast(ib)) {
+        // A detect-only pair (a sensor) never stops a body: it has no contact to resolve.
+        if candidates.dormant[k] || candidates.detect_only[k] || !(fast(ia) || fast(ib)) {
             continue;
         }
         if first.is_empty() {
@@ -214,6 +215,7 @@ pub fn solve_contacts(
     pairs.update_touching(
         &rows.contacts,
         &rows.keys,
+        &rows.detected,
         &candidates.dormant,
         state.settings.touch_distance,
         &mut events.started,
