@@ -7,7 +7,7 @@ use parry3d::query::{
     ContactManifold, ContactManifoldsWorkspace, DefaultQueryDispatcher, NonlinearRigidMotion,
     PersistentQueryDispatcher, ShapeCastOptions, cast_shapes, cast_shapes_nonlinear, distance,
 };
-use parry3d::shape::{Shape, SharedShape};
+use parry3d::shape::{FeatureId, Shape, SharedShape};
 
 use crate::dynamics::solver::ContactConstraint;
 
@@ -178,6 +178,57 @@ impl ContactPair {
             frame(pose_b, manifold.subshape_pos2),
         )
     }
+}
+
+/// The outward normal of the face of `shape` (turned by `rotation`) that faces `outward`, if
+/// `shape` is a polyhedron (a cuboid or a convex hull) with a face within `max_angle` (rad) of
+/// `outward`; `None` for curved shapes (spheres, capsules) and where an edge or a vertex faces
+/// `outward`.
+///
+/// # Examples
+///
+/// ```
+/// use bevy::math::{Quat, Vec3};
+/// use impact3d::collision::Collider;
+/// use impact3d::collision::narrow_phase::face_normal_toward;
+///
+/// let cube = Collider::cuboid(0.5, 0.5, 0.5);
+/// let tilt = Quat::from_rotation_z(1e-4);
+/// // The top face, tilted 1e-4 rad, is within 1e-3 rad of straight up: its own normal.
+/// let n = face_normal_toward(cube.shape().as_ref(), tilt, Vec3::Y, 1e-3).unwrap();
+/// assert!((n - tilt * Vec3::Y).length() < 1e-7);
+/// // A sphere has no faces.
+/// let ball = Collider::sphere(0.5);
+/// assert_eq!(face_normal_toward(ball.shape().as_ref(), tilt, Vec3::Y, 1e-3), None);
+/// ```
+pub fn face_normal_toward(
+    shape: &dyn Shape,
+    rotation: Quat,
+    outward: Vec3,
+    max_angle: f32,
+) -> Option<Vec3> {
+    let local = rotation.inverse() * outward;
+    let face = if shape.as_cuboid().is_some() {
+        let a = local.abs();
+        let k = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut n = Vec3::ZERO;
+        n[k] = local[k].signum();
+        n
+    } else if let Some(hull) = shape.as_convex_polyhedron() {
+        match hull.support_feature_id_toward(local) {
+            id @ FeatureId::Face(_) => hull.feature_normal(id)?,
+            _ => return None,
+        }
+    } else {
+        return None;
+    };
+    (face.dot(local) >= max_angle.cos()).then(|| rotation * face)
 }
 
 /// The power of two nearest the world's length unit `unit` (m), in which contacts are generated
