@@ -4,6 +4,7 @@ pub mod broad_phase;
 pub mod collider;
 pub mod narrow_phase;
 
+pub use broad_phase::BroadPhaseTree;
 pub use collider::Collider;
 pub use narrow_phase::{ContactPair, ContactPairs};
 
