@@ -27,9 +27,11 @@ const NONE: u32 = u32::MAX;
 /// listed by [`unbounded`](Self::unbounded): a query must test them directly.
 ///
 /// The built-in broad phase ([`crate::pipeline::BroadPhasePlugin`]) maintains it and reads it
-/// for the step's pairs; it can be read from any system for spatial queries, between steps.
-/// Its structure depends on the order bodies were inserted in (that order is deterministic);
-/// what a query finds does not.
+/// for the step's pairs (with a replacement broad phase it stays empty); it can be read from
+/// any system for spatial queries, between steps. It holds the bodies as the last step's broad
+/// phase saw them: a body despawned, moved or spawned since is updated in the next step. Its
+/// structure depends on the order bodies were inserted in (that order is deterministic); what
+/// a query finds does not.
 ///
 /// # Examples
 ///
