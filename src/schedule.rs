@@ -5,7 +5,7 @@
 //! | set | what runs |
 //! |---|---|
 //! | [`PhysicsSystems::Prepare`] | read new and changed bodies, validate them (quarantine bad input), compute mass properties, pack solver bodies |
-//! | [`PhysicsSystems::BroadPhase`] | sweep and prune over bounding boxes widened by the contact margin and each body's motion |
+//! | [`PhysicsSystems::BroadPhase`] | pairs of overlapping bounding boxes (widened by the contact margin and each body's motion), through the persistent [`BroadPhaseTree`](crate::collision::BroadPhaseTree) |
 //! | [`PhysicsSystems::NarrowPhase`] | parry3d contact manifolds per pair, persistent so impulses carry over; contact constraints |
 //! | [`PhysicsSystems::Solve`] | gravity, impacts and resting contact by the chosen [`SolverMethod`](crate::dynamics::SolverMethod), position integration |
 //! | [`PhysicsSystems::WriteBack`] | `Transform`, `LinearVelocity`, `AngularVelocity` |

@@ -6,6 +6,7 @@ pub mod layers;
 pub mod narrow_phase;
 pub mod sensor;
 
+pub use broad_phase::BroadPhaseTree;
 pub use collider::Collider;
 pub use layers::{CollisionLayers, LayerMask, PhysicsLayer};
 pub use narrow_phase::{ContactPair, ContactPairs};

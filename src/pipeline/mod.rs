@@ -7,9 +7,11 @@
 //! its own, readable from outside the crate: the bodies of the step in [`PhysicsState`]
 //! (prepare), the overlapping pairs in [`CandidatePairs`] (broad phase), the contact rows in
 //! [`ContactRows`] (narrow phase, impulses from the solve), the step's events in
-//! [`StepEvents`] (narrow phase and solve). A replacement broad phase reads the bodies' boxes
-//! and ends with [`CandidatePairs::set`] (`tests/replace_stage.rs` swaps in an all-pairs one
-//! and gets bit-identical results). Nothing in `collision`, `dynamics` or `schedule` imports
+//! [`StepEvents`] (narrow phase and solve); the broad phase also keeps the persistent
+//! [`BroadPhaseTree`](crate::collision::BroadPhaseTree) of every body's box for spatial queries. A
+//! replacement broad phase reads the bodies' boxes and ends with [`CandidatePairs::set`]
+//! (`tests/replace_stage.rs` swaps in an all-pairs one and gets bit-identical results); the
+//! tree is then left empty. Nothing in `collision`, `dynamics` or `schedule` imports
 //! this module.
 
 pub mod broad_phase;
@@ -34,6 +36,7 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
+use crate::collision::BroadPhaseTree;
 use crate::collision::layers::CollisionLayers;
 use crate::collision::narrow_phase::{TOUCH_DISTANCE, UnitShapes};
 use crate::collision::sensor::Reporting;
@@ -47,6 +50,7 @@ use crate::messages::Impact;
 /// the others replaced or left out.
 fn init_stage_state(app: &mut App) -> &mut App {
     app.init_resource::<PhysicsState>()
+        .init_resource::<BroadPhaseTree>()
         .init_resource::<CandidatePairs>()
         .init_resource::<ContactRows>()
         .init_resource::<StepEvents>()
@@ -89,7 +93,6 @@ pub struct PhysicsState {
     /// Scratch: (entity, body index), sorted, to find the carried-over pairs' bodies.
     index_of: Vec<(Entity, u32)>,
     index_pairs: Vec<(u32, u32)>,
-    sort_scratch: Vec<u32>,
     /// Bounding radius of each body about its centre of mass, m.
     radius: Vec<f32>,
     /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
@@ -525,8 +528,8 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
     state.entered.push(s.entity);
 }
 
-/// Brings in every sleeping body whose box an active body's box overlaps, so that the sweep
-/// finds their pairs as if every sleeping body were in the arrays.
+/// Brings in every sleeping body whose box an active body's box overlaps, so that the pair
+/// search finds their pairs as if every sleeping body were in the arrays.
 fn bring_in_overlapped(state: &mut PhysicsState) {
     if state.sleepers.is_empty() {
         return;
