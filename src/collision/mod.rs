@@ -4,7 +4,7 @@ pub mod broad_phase;
 pub mod collider;
 pub mod narrow_phase;
 
-pub use collider::Collider;
+pub use collider::{Collider, ColliderDisabled};
 pub use narrow_phase::{ContactPair, ContactPairs};
 
 use bevy::prelude::*;
@@ -19,6 +19,7 @@ pub struct CollisionPlugin;
 impl Plugin for CollisionPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ContactPairs>()
+            .register_type::<ColliderDisabled>()
             .add_message::<CollisionStarted>()
             .add_message::<CollisionEnded>();
     }

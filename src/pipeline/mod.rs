@@ -35,11 +35,13 @@ use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
 use crate::collision::narrow_phase::{TOUCH_DISTANCE, UnitShapes};
+use crate::dynamics::forces::BodyMotion;
 use crate::dynamics::sleep::{SleepConfig, SleepingSet};
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
 use crate::dynamics::{Gravity, SolverConfig};
 use crate::messages::Impact;
+use crate::schedule::PhysicsTime;
 
 /// Initialises the resources the stages share, so that each stage plugin can run with any of
 /// the others replaced or left out.
@@ -83,6 +85,11 @@ pub struct PhysicsState {
     sort_scratch: Vec<u32>,
     /// Bounding radius of each body about its centre of mass, m.
     radius: Vec<f32>,
+    /// Each body's collider takes part in contacts (no `ColliderDisabled`).
+    collides: Vec<bool>,
+    /// The dynamic bodies with forces, damping, speed caps or translation locks: index, what
+    /// they have, and the centre of mass at the start of the step.
+    motion: Vec<(usize, BodyMotion, Vec3)>,
     /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
     /// solver body it becomes if it is woken in this step.
     asleep: Vec<Option<(Entity, SolverBody)>>,
@@ -187,8 +194,8 @@ impl CandidatePairs {
 
     /// Sets the candidates from overlapping body index pairs of `state` (each pair once, in
     /// any order and either way round): keeps the pairs with a dynamic or sleeping body, and
-    /// sorts them by entity. What a broad phase, the built-in one or a replacement, ends
-    /// with.
+    /// sorts them by entity; pairs with a `ColliderDisabled` body are dropped. What a broad
+    /// phase, the built-in one or a replacement, ends with.
     pub fn set(
         &mut self,
         state: &PhysicsState,
@@ -196,7 +203,9 @@ impl CandidatePairs {
     ) {
         let mut keyed: Vec<((Entity, Entity), (usize, usize))> = overlapping
             .into_iter()
-            .filter(|&(i, j)| state.live(i) || state.live(j))
+            .filter(|&(i, j)| {
+                (state.live(i) || state.live(j)) && state.collides[i] && state.collides[j]
+            })
             .map(|(i, j)| {
                 let (ei, ej) = (state.entities[i], state.entities[j]);
                 if ei < ej {
@@ -284,6 +293,8 @@ struct Settings {
     length_unit: f32,
     /// [`TOUCH_DISTANCE`] in the length unit, m.
     touch_distance: f32,
+    /// [`PhysicsTime::relative_speed`](crate::schedule::PhysicsTime::relative_speed).
+    relative_speed: f32,
 }
 
 impl Default for Settings {
@@ -295,11 +306,13 @@ impl Default for Settings {
             dt: DEFAULT_DT,
             length_unit: 1.0,
             touch_distance: TOUCH_DISTANCE,
+            relative_speed: 1.0,
         }
     }
 }
 
-/// Validates the settings resources and the step length against the last good values (see
+/// Validates the settings resources and the step length (the schedule's delta times the
+/// physics clock's relative speed) against the last good values (see
 /// [`SolverConfig::validated`]), logging each invalid value once, as an error naming the
 /// field and the value, for as long as it stays.
 fn validate_settings(
@@ -308,10 +321,15 @@ fn validate_settings(
     gravity: &Gravity,
     sleep: &SleepConfig,
     unit: &PhysicsLengthUnit,
-    dt: f32,
+    clock: &PhysicsTime,
+    delta: f32,
 ) {
     let last = &state.last_good;
+    let (relative_speed, speed_error) = clock.validated_speed(last.relative_speed);
+    // Speed 1 leaves the delta as it is, bit for bit (`x * 1.0 == x` in IEEE arithmetic).
+    let dt = delta * relative_speed;
     let (config, mut errors) = config.validated(&last.config);
+    errors.extend(speed_error);
     let (gravity, e) = gravity.validated(last.gravity);
     errors.extend(e);
     let (sleep, e) = sleep.validated(&last.sleep);
@@ -333,6 +351,7 @@ fn validate_settings(
         dt,
         length_unit: unit,
         touch_distance: TOUCH_DISTANCE,
+        relative_speed,
     };
     state.settings = state.last_good.scaled();
 }
@@ -420,6 +439,11 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
     state.aabbs.push(state.sleepers.aabb(i));
     state.active.push(false);
     state.radius.push(s.radius);
+    state.collides.push(s.collides);
+    if let Some(motion) = s.motion {
+        let index = state.bodies.len() - 1;
+        state.motion.push((index, motion, s.body.position));
+    }
     state.asleep.push(Some((s.island, s.body)));
     state.entered.push(s.entity);
 }

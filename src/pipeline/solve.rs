@@ -189,6 +189,14 @@ pub fn solve_contacts(
         state.settings.gravity.0,
         state.dt,
     );
+    // Free flight on the exact parabola, translation locks and speed caps, for the bodies that
+    // have them (see `crate::dynamics::forces`).
+    for &(i, extra, start) in &state.motion {
+        let body = &mut state.bodies[i];
+        if body.motion == Motion::Dynamic {
+            extra.end_step(body, start, state.dt);
+        }
+    }
     // The hybrid method resolves impacts one at a time at their time of impact, on contacts
     // generated at the time-of-impact poses, so its bodies already stop where they first touch
     // (a box spinning at 1e3 rad/s stops at a thin wall without the rewind): only the other
