@@ -698,3 +698,46 @@ fn a_force_wakes_a_sleeping_body() {
         "{vx} vs {expected}"
     );
 }
+
+/// Disabling the bottom box of a sleeping stack of two takes it out of the world: the top box
+/// wakes (its resting pair ended) and falls to the floor (rests at y = 0.5 within 1 mm); the
+/// bottom box, asleep and disabled, has not moved by a bit; enabled again, it rejoins
+/// overlapping the top one and is pushed out, and both end up resting (speeds under 1 cm/s).
+#[test]
+fn disabling_a_support_wakes_what_rests_on_it() {
+    let mut app = headless_app(60.0);
+    let cubes = scenes::stack(app.world_mut(), 2);
+    run_steps(&mut app, 120);
+    assert!(cubes.iter().all(|&c| app.world().get::<Sleeping>(c).is_some()));
+    let bottom_at = snapshot(&app, &cubes[..1]);
+    app.world_mut().entity_mut(cubes[0]).insert(RigidBodyDisabled);
+    run_steps(&mut app, 120);
+    assert!((position(&app, cubes[1]).y - 0.5).abs() < 1e-3, "{}", position(&app, cubes[1]));
+    assert_eq!(snapshot(&app, &cubes[..1]), bottom_at);
+    app.world_mut().entity_mut(cubes[0]).remove::<RigidBodyDisabled>();
+    run_steps(&mut app, 240);
+    for &c in &cubes {
+        let p = position(&app, c);
+        assert!(p.is_finite() && p.y > 0.4, "{p}");
+        assert!(velocity(&app, c).length() < 0.01, "{}", velocity(&app, c));
+    }
+}
+
+/// `ColliderDisabled` inserted on a box asleep on the floor wakes it and it falls through. Its
+/// pair with the floor ends in the first step, which wakes its island at the end of that step
+/// (as when a support is despawned), so after 60 steps it has fallen for 59: `g (59 dt)^2 / 2`
+/// from where it slept (1e-4 relative, f32 rounding).
+#[test]
+fn collider_disabled_on_a_sleeping_body() {
+    let mut app = headless_app(60.0);
+    let cube = scenes::stack(app.world_mut(), 1)[0];
+    run_steps(&mut app, 150);
+    assert!(app.world().get::<Sleeping>(cube).is_some());
+    let y0 = position(&app, cube).y;
+    app.world_mut().entity_mut(cube).insert(ColliderDisabled);
+    run_steps(&mut app, 60);
+    assert!(app.world().get::<Sleeping>(cube).is_none());
+    let drop = y0 - position(&app, cube).y;
+    let t = 59.0 * DT;
+    assert!((drop - 0.5 * G * t * t).abs() <= 1e-4 * drop, "{drop}");
+}
