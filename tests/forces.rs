@@ -708,13 +708,25 @@ fn disabling_a_support_wakes_what_rests_on_it() {
     let mut app = headless_app(60.0);
     let cubes = scenes::stack(app.world_mut(), 2);
     run_steps(&mut app, 120);
-    assert!(cubes.iter().all(|&c| app.world().get::<Sleeping>(c).is_some()));
+    assert!(
+        cubes
+            .iter()
+            .all(|&c| app.world().get::<Sleeping>(c).is_some())
+    );
     let bottom_at = snapshot(&app, &cubes[..1]);
-    app.world_mut().entity_mut(cubes[0]).insert(RigidBodyDisabled);
+    app.world_mut()
+        .entity_mut(cubes[0])
+        .insert(RigidBodyDisabled);
     run_steps(&mut app, 120);
-    assert!((position(&app, cubes[1]).y - 0.5).abs() < 1e-3, "{}", position(&app, cubes[1]));
+    assert!(
+        (position(&app, cubes[1]).y - 0.5).abs() < 1e-3,
+        "{}",
+        position(&app, cubes[1])
+    );
     assert_eq!(snapshot(&app, &cubes[..1]), bottom_at);
-    app.world_mut().entity_mut(cubes[0]).remove::<RigidBodyDisabled>();
+    app.world_mut()
+        .entity_mut(cubes[0])
+        .remove::<RigidBodyDisabled>();
     run_steps(&mut app, 240);
     for &c in &cubes {
         let p = position(&app, c);
@@ -740,4 +752,31 @@ fn collider_disabled_on_a_sleeping_body() {
     let drop = y0 - position(&app, cube).y;
     let t = 59.0 * DT;
     assert!((drop - 0.5 * G * t * t).abs() <= 1e-4 * drop, "{drop}");
+}
+
+/// Paused, an interpolated body is shown at the pose the last physics step wrote, and stays
+/// there bit for bit (interpolating between the last two poses while no step runs would show
+/// it between them, moving back and forth as the frame's fraction of the step changes).
+#[test]
+fn paused_interpolated_body_stays_at_its_last_pose() {
+    let mut app = headless_app(60.0);
+    let ball = app
+        .world_mut()
+        .spawn((
+            scenes::ball(0.25, 1.0, Vec3::new(0.0, 10.0, 0.0), Vec3::X),
+            TransformInterpolation,
+        ))
+        .id();
+    run_steps(&mut app, 10);
+    app.world_mut().resource_mut::<PhysicsTime>().pause();
+    run_steps(&mut app, 1);
+    let end = app
+        .world()
+        .get::<impact3d::interpolation::InterpolationState>(ball)
+        .unwrap()
+        .end;
+    for _ in 0..5 {
+        run_steps(&mut app, 1);
+        assert_eq!((position(&app, ball), rotation(&app, ball)), end);
+    }
 }

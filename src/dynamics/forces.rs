@@ -207,7 +207,9 @@ pub struct AccumulatedForces {
 /// next physics step only; impulses change [`LinearVelocity`] and [`AngularVelocity`] at once
 /// (and so wake a sleeping body, as any change of velocity does; a force wakes it when the
 /// step reads it). Only dynamic bodies respond; a body spawned in this frame has no mass yet
-/// (its [`ComputedMass`] is derived by the next step), so an impulse on it does nothing.
+/// (its [`ComputedMass`] is derived by the next step), so an impulse on it does nothing. A
+/// force applied in `Update` acts on the first fixed step after it only, however many run in
+/// the frame: apply continuous forces in `FixedUpdate`, or use [`ConstantForce`].
 #[derive(QueryData)]
 #[query_data(mutable)]
 pub struct Forces {
