@@ -56,9 +56,10 @@ fn constant_force_free_body_follows_the_parabola() {
 }
 
 /// A constant force on a box sliding on a frictionless floor (in contact every step, so the
-/// solver's symplectic Euler): `x_n = a dt^2 n (n + 1) / 2` (velocity first, then position),
-/// `a = F / m`, to f32 rounding (1e-5 relative); against the exact `a t^2 / 2` it is ahead by
-/// `a dt^2 n / 2`, which the test checks as the bound.
+/// solver's symplectic Euler, substep by substep, as for gravity): with `N = 4 n` substeps of
+/// `h = dt / 4`, `x_N = a h^2 N (N + 1) / 2` (velocity first, then position), `a = F / m`, to
+/// f32 rounding (1e-5 relative); against the exact `a t^2 / 2` it is ahead by `a h^2 N / 2`,
+/// which the test checks as the bound.
 #[test]
 fn constant_force_in_contact_is_symplectic_euler() {
     let mut app = headless_app(60.0);
@@ -75,13 +76,14 @@ fn constant_force_in_contact_is_symplectic_euler() {
     run_steps(&mut app, n);
     let a = force / mass;
     let x = position(&app, cube).x;
-    let symplectic = 0.5 * a * DT * DT * (n * (n + 1)) as f32;
+    let (h, substeps) = (DT / 4.0, 4 * n);
+    let symplectic = 0.5 * a * h * h * (substeps * (substeps + 1)) as f32;
     assert!(
         (x - symplectic).abs() <= 1e-5 * symplectic,
         "{x} vs {symplectic}"
     );
     let t = n as f32 * DT;
-    let bound = 0.5 * a * DT * DT * n as f32;
+    let bound = 0.5 * a * h * h * substeps as f32;
     assert!((x - 0.5 * a * t * t).abs() <= bound * 1.001, "{x}");
     assert!((velocity(&app, cube).x - a * t).abs() <= 1e-5 * a * t);
     // Resting on the floor all along.
@@ -243,43 +245,38 @@ fn forces_act_for_one_step_and_impulses_at_once() {
 
 /// Gravity scale: 0 floats, 2 falls twice as far as 1 in the same time (ratio 2 to 1e-4, f32
 /// rounding), -1 rises as far as 1 falls, and `GravityScale(1.0)` is bit-identical to no
-/// component. The floating body is moved down by the solver's gravity and back by the step's
-/// `-g` (see `impact3d::dynamics::forces`), so its height carries the f32 rounding of about
-/// six additions a step: at y = 1 (ulp 1.2e-7 m) it stays within 3 ulp a step, 4.3e-5 m in
-/// 120 steps; its speed within 1e-5 m/s.
+/// component. A floating body has no drift at all, at y = 1 as at y = 100: its extra
+/// acceleration is `(0 - 1) g = -g` exactly, the solver integrates `g + (-g)`, which is 0 in
+/// IEEE arithmetic, so its velocity and position get exactly zero added.
 #[test]
 fn gravity_scale() {
     let mut app = headless_app(60.0);
     let y0 = 100.0;
-    let mut spawn = |x: f32, scale: Option<f32>| {
+    let mut spawn = |x: f32, y: f32, scale: Option<f32>| {
         let mut e =
             app.world_mut()
-                .spawn(scenes::ball(0.25, 1.0, Vec3::new(x, y0, 0.0), Vec3::ZERO));
+                .spawn(scenes::ball(0.25, 1.0, Vec3::new(x, y, 0.0), Vec3::ZERO));
         if let Some(s) = scale {
             e.insert(GravityScale(s));
         }
         e.id()
     };
-    let plain = spawn(0.0, None);
-    let one = spawn(2.0, Some(1.0));
-    let two = spawn(6.0, Some(2.0));
-    let up = spawn(8.0, Some(-1.0));
-    let zero = app
-        .world_mut()
-        .spawn((
-            scenes::ball(0.25, 1.0, Vec3::new(4.0, 1.0, 0.0), Vec3::ZERO),
-            GravityScale(0.0),
-        ))
-        .id();
+    let plain = spawn(0.0, y0, None);
+    let one = spawn(2.0, y0, Some(1.0));
+    let two = spawn(6.0, y0, Some(2.0));
+    let up = spawn(8.0, y0, Some(-1.0));
+    let zero = spawn(4.0, 1.0, Some(0.0));
+    let zero_high = spawn(10.0, y0, Some(0.0));
     run_steps(&mut app, 120);
     let drop = |e| y0 - position(&app, e).y;
     assert_eq!(
         snapshot(&app, &[plain])[0][1..],
         snapshot(&app, &[one])[0][1..]
     );
-    let floated = position(&app, zero).y - 1.0;
-    assert!(floated.abs() <= 4.3e-5, "floats: {floated}");
-    assert!(velocity(&app, zero).length() <= 1e-5);
+    assert_eq!(position(&app, zero), Vec3::new(4.0, 1.0, 0.0));
+    assert_eq!(position(&app, zero_high), Vec3::new(10.0, y0, 0.0));
+    assert_eq!(velocity(&app, zero), Vec3::ZERO);
+    assert_eq!(velocity(&app, zero_high), Vec3::ZERO);
     let fall = 0.5 * G * 4.0;
     assert!((drop(plain) - fall).abs() <= 1e-4 * fall);
     assert!(
@@ -288,6 +285,153 @@ fn gravity_scale() {
         drop(two)
     );
     assert!((drop(up) / drop(plain) + 1.0).abs() <= 1e-4, "{}", drop(up));
+}
+
+/// `GravityScale(0.0)` bodies that touch something do not creep, under every method (kept
+/// awake for 2 s with `SleepingDisabled`, where creep would show): a box placed on the floor,
+/// and a ball pressed against a frictionless wall by 1 N. The extra acceleration `-g` is
+/// integrated with gravity substep by substep, so the two cancel exactly in every substep (the
+/// start-of-step velocity change `-g dt` of the first version made them rise
+/// `g dt^2 (n - 1) / 2n`, 1.0 mm a step: the box rose 2.6 cm before it lost the floor, the ball
+/// 3.1 cm). Bound: 1e-6 m on the height (8 f32 ulps at 0.5 m; measured: 0, bit for bit). The
+/// ball sinks into the wall by the soft contact's `F / (m omega^2)` at most, `omega = 2 pi 30`
+/// (2.8e-5 m; the rigid methods do not sink), and with sleeping enabled it falls asleep.
+#[test]
+fn weightless_bodies_in_contact_do_not_creep() {
+    let omega = 2.0 * std::f32::consts::PI * 30.0;
+    let (radius, force) = (0.25, 1.0);
+    let sink = force / (omega * omega);
+    for method in SolverMethod::ALL {
+        for sleeping in [false, true] {
+            let mut app = headless_app(60.0);
+            app.insert_resource(SolverConfig::for_method(method));
+            scenes::ground(app.world_mut());
+            app.world_mut().spawn((
+                RigidBody::Static,
+                Collider::cuboid(0.5, 5.0, 5.0),
+                Transform::from_xyz(-10.5, 3.0, 0.0),
+            ));
+            let cube = app
+                .world_mut()
+                .spawn((
+                    scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0)),
+                    GravityScale(0.0),
+                ))
+                .id();
+            let ball = app
+                .world_mut()
+                .spawn((
+                    scenes::ball(radius, 1.0, Vec3::new(-10.0 + radius, 2.0, 0.0), Vec3::ZERO),
+                    GravityScale(0.0),
+                    ConstantForce::new(-force, 0.0, 0.0),
+                ))
+                .id();
+            if !sleeping {
+                app.world_mut().entity_mut(cube).insert(SleepingDisabled);
+                app.world_mut().entity_mut(ball).insert(SleepingDisabled);
+            }
+            for step in 0..120 {
+                run_steps(&mut app, 1);
+                let (c, b) = (position(&app, cube), position(&app, ball));
+                assert!((c.y - 0.5).abs() <= 1e-6, "{method:?} step {step}: box {c}");
+                assert!(
+                    (b.y - 2.0).abs() <= 1e-6,
+                    "{method:?} step {step}: ball {b}"
+                );
+                let into = -10.0 + radius - b.x;
+                assert!(
+                    (-1e-6..=sink * 1.01).contains(&into),
+                    "{method:?} step {step}: ball {into} m into the wall"
+                );
+            }
+            if sleeping {
+                for e in [cube, ball] {
+                    assert!(
+                        app.world().get::<Sleeping>(e).is_some(),
+                        "{method:?}: not asleep"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// `GravityScale(5.0)` with restitution 0.5 on the floor rests and sleeps under every method:
+/// the extra `4 g` is integrated substep by substep like gravity, so a resting contact sees
+/// only `5 g h` (0.2 m/s at 240 Hz) a substep as its approach, below the 0.5 m/s restitution
+/// threshold. (As a start-of-step `4 g dt` it was an approach of 0.65 m/s: the ball bounced at
+/// 0.16 m/s and never slept.) A ball and a box, placed touching: they never move up faster
+/// than 1e-5 m/s (measured: 0 and 1.4e-6 m/s) and fall asleep within 1 s. The soft methods'
+/// contact sinks by `5 g / omega^2` (1.38 mm at 30 Hz) under five times the weight: kept
+/// awake, within 1% after 200 steps (the soft contact is overdamped, damping ratio 10, and
+/// approaches its rest depth exponentially; measured 1.380 mm of 1.3805), and asleep, at most
+/// that and at least 97% of it (the body falls asleep while still settling at under the sleep
+/// threshold: measured 1.362 mm). The rigid methods stop it within the linear slop (5 mm).
+#[test]
+fn heavy_bouncy_bodies_rest_and_sleep() {
+    let omega = 2.0 * std::f32::consts::PI * 30.0;
+    let scale = 5.0;
+    let predicted = scale * G / (omega * omega);
+    for method in SolverMethod::ALL {
+        let soft = matches!(method, SolverMethod::Hybrid | SolverMethod::SoftStep);
+        for awake in [false, true] {
+            let mut app = headless_app(60.0);
+            app.insert_resource(SolverConfig::for_method(method));
+            scenes::ground(app.world_mut());
+            let ball = app
+                .world_mut()
+                .spawn((
+                    scenes::ball(0.25, 1.0, Vec3::new(0.0, 0.25, 0.0), Vec3::ZERO),
+                    GravityScale(scale),
+                    Restitution(0.5),
+                ))
+                .id();
+            let cube = app
+                .world_mut()
+                .spawn((
+                    scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(3.0, 0.5, 0.0)),
+                    GravityScale(scale),
+                    Restitution(0.5),
+                ))
+                .id();
+            let bodies = [(ball, 0.25), (cube, 0.5)];
+            if awake {
+                for (e, _) in bodies {
+                    app.world_mut().entity_mut(e).insert(SleepingDisabled);
+                }
+            }
+            let steps = if awake { 200 } else { 60 };
+            for step in 0..steps {
+                run_steps(&mut app, 1);
+                for (e, _) in bodies {
+                    let v = velocity(&app, e).y;
+                    assert!(v <= 1e-5, "{method:?} step {step}: moving up at {v}");
+                }
+            }
+            for (e, rest) in bodies {
+                let sink = rest - position(&app, e).y;
+                if soft && awake {
+                    assert!(
+                        (sink - predicted).abs() <= 0.01 * predicted,
+                        "{method:?}: sink {sink} vs {predicted}"
+                    );
+                } else if soft {
+                    assert!(
+                        (0.97 * predicted..=1.01 * predicted).contains(&sink),
+                        "{method:?}: sink {sink} vs {predicted}"
+                    );
+                } else {
+                    assert!((-1e-6..=0.005).contains(&sink), "{method:?}: sink {sink}");
+                }
+                if !awake {
+                    assert!(
+                        app.world().get::<Sleeping>(e).is_some(),
+                        "{method:?}: not asleep"
+                    );
+                }
+            }
+        }
+    }
 }
 
 /// Bodies resting on the floor under a gravity scale stay put: a box with scale 2 and one with

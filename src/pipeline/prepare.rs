@@ -542,9 +542,20 @@ fn gather_body(
     } else {
         0.0
     };
-    let accelerated = extra.map_or(Vec3::ZERO, |e| e.linear_acceleration);
+    // The extra acceleration the solver integrates with gravity (see `BodyMotion::start_step`).
+    let accelerated = if body.motion == Motion::Dynamic {
+        body.extra_acceleration
+    } else {
+        Vec3::ZERO
+    };
+    let speed_gained = if accelerated == Vec3::ZERO {
+        gained
+    } else {
+        (gravity + accelerated).length() * dt
+    };
     let reach = if moving {
-        (body.linear_velocity.length() + gained + body.angular_velocity.length() * radius) * dt
+        (body.linear_velocity.length() + speed_gained + body.angular_velocity.length() * radius)
+            * dt
     } else {
         0.0
     };
@@ -555,10 +566,9 @@ fn gather_body(
     let aabb = if moving {
         let mut travel = body.linear_velocity * dt
             + 0.5 * gained * dt * state.settings.gravity.0.normalize_or_zero();
-        // A free body's extra acceleration moves it `a dt^2 / 2` less than its new velocity
-        // does (see `BodyMotion::end_step`).
+        // A free body flies on the parabola of `g + a`.
         if accelerated != Vec3::ZERO {
-            travel -= 0.5 * accelerated * dt * dt;
+            travel += 0.5 * accelerated * dt * dt;
         }
         let end = parry3d::bounding_volume::Aabb::new(aabb.mins + travel, aabb.maxs + travel);
         aabb.merged(&end)
