@@ -10,8 +10,8 @@ use crate::dynamics::solver::Motion;
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
 use super::{
-    CandidatePairs, PhysicsState, bring_in_overlapped, init_stage_state, mark_awake_active,
-    wake_islands,
+    CandidatePairs, PairKind, PhysicsState, bring_in_overlapped, init_stage_state,
+    mark_awake_active, wake_islands,
 };
 
 /// Adds [`update_broad_phase`] to [`PhysicsSystems::BroadPhase`].
@@ -58,7 +58,13 @@ pub fn update_broad_phase(
                         || (o.motion == Motion::Kinematic
                             && (o.linear_velocity != Vec3::ZERO
                                 || o.angular_velocity != Vec3::ZERO));
-                    if active && state.asleep[other].is_none() && !islands.contains(&island) {
+                    // Only a pair that is solved pushes: a body its layers filter out, or a
+                    // sensor, passes a sleeper without waking it.
+                    if active
+                        && state.asleep[other].is_none()
+                        && !islands.contains(&island)
+                        && state.pair_kind(me, other) == Some(PairKind::Solved)
+                    {
                         islands.push(island);
                     }
                 }

@@ -40,11 +40,13 @@ use crate::collision::BroadPhaseTree;
 use crate::collision::layers::CollisionLayers;
 use crate::collision::narrow_phase::{TOUCH_DISTANCE, UnitShapes};
 use crate::collision::sensor::Reporting;
+use crate::dynamics::forces::BodyMotion;
 use crate::dynamics::sleep::{SleepConfig, SleepingSet};
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
 use crate::dynamics::{Gravity, SolverConfig};
 use crate::messages::Impact;
+use crate::schedule::PhysicsTime;
 
 /// Initialises the resources the stages share, so that each stage plugin can run with any of
 /// the others replaced or left out.
@@ -95,6 +97,11 @@ pub struct PhysicsState {
     index_pairs: Vec<(u32, u32)>,
     /// Bounding radius of each body about its centre of mass, m.
     radius: Vec<f32>,
+    /// Each body's collider takes part in contacts (no `ColliderDisabled`).
+    collides: Vec<bool>,
+    /// The dynamic bodies with forces, damping, speed caps or translation locks: index, what
+    /// they have, and the centre of mass at the start of the step.
+    motion: Vec<(usize, BodyMotion, Vec3)>,
     /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
     /// solver body it becomes if it is woken in this step.
     asleep: Vec<Option<(Entity, SolverBody)>>,
@@ -179,7 +186,8 @@ impl PhysicsState {
     }
 
     /// Whether bodies `i` and `j`, if their boxes overlap, make a candidate pair, and of which
-    /// kind (see [`CandidatePairs::set`], which keeps the pairs this accepts). Their layers must
+    /// kind (see [`CandidatePairs::set`], which keeps the pairs this accepts). Neither may have a
+    /// disabled collider, and their layers must
     /// interact. A pair with a dynamic or sleeping body is [`PairKind::Solved`] unless a sensor
     /// is in it. A pair of two non-dynamic bodies is [`PairKind::DetectOnly`] when one of them
     /// asks for reports (sensor, events or colliding entities) and one of them is kinematic or a
@@ -187,7 +195,8 @@ impl PhysicsState {
     ///
     /// A broad phase that wakes sleeping bodies can ask this first: only a solved pair pushes.
     pub fn pair_kind(&self, i: usize, j: usize) -> Option<PairKind> {
-        if !self.layers[i].interacts_with(self.layers[j]) {
+        if !self.collides[i] || !self.collides[j] || !self.layers[i].interacts_with(self.layers[j])
+        {
             return None;
         }
         let (ri, rj) = (self.reporting[i], self.reporting[j]);
@@ -260,7 +269,8 @@ impl CandidatePairs {
     /// any order and either way round), and sorts them by entity. What a broad phase, the
     /// built-in one or a replacement, ends with; the one place pairs are filtered:
     ///
-    /// - the bodies' [`CollisionLayers`] must interact
+    /// - neither body has a [`ColliderDisabled`](crate::collision::ColliderDisabled), and the
+    ///   bodies' [`CollisionLayers`] must interact
     ///   ([`CollisionLayers::interacts_with`]);
     /// - a pair with a dynamic or sleeping body is kept, solved unless a
     ///   [`Sensor`](crate::collision::Sensor) is in it;
@@ -386,6 +396,8 @@ struct Settings {
     length_unit: f32,
     /// [`TOUCH_DISTANCE`] in the length unit, m.
     touch_distance: f32,
+    /// [`PhysicsTime::relative_speed`](crate::schedule::PhysicsTime::relative_speed).
+    relative_speed: f32,
 }
 
 impl Default for Settings {
@@ -397,11 +409,13 @@ impl Default for Settings {
             dt: DEFAULT_DT,
             length_unit: 1.0,
             touch_distance: TOUCH_DISTANCE,
+            relative_speed: 1.0,
         }
     }
 }
 
-/// Validates the settings resources and the step length against the last good values (see
+/// Validates the settings resources and the step length (the schedule's delta times the
+/// physics clock's relative speed) against the last good values (see
 /// [`SolverConfig::validated`]), logging each invalid value once, as an error naming the
 /// field and the value, for as long as it stays.
 fn validate_settings(
@@ -410,10 +424,15 @@ fn validate_settings(
     gravity: &Gravity,
     sleep: &SleepConfig,
     unit: &PhysicsLengthUnit,
-    dt: f32,
+    clock: &PhysicsTime,
+    delta: f32,
 ) {
     let last = &state.last_good;
+    let (relative_speed, speed_error) = clock.validated_speed(last.relative_speed);
+    // Speed 1 leaves the delta as it is, bit for bit (`x * 1.0 == x` in IEEE arithmetic).
+    let dt = delta * relative_speed;
     let (config, mut errors) = config.validated(&last.config);
+    errors.extend(speed_error);
     let (gravity, e) = gravity.validated(last.gravity);
     errors.extend(e);
     let (sleep, e) = sleep.validated(&last.sleep);
@@ -435,6 +454,7 @@ fn validate_settings(
         dt,
         length_unit: unit,
         touch_distance: TOUCH_DISTANCE,
+        relative_speed,
     };
     state.settings = state.last_good.scaled();
 }
@@ -524,6 +544,11 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
     state.aabbs.push(state.sleepers.aabb(i));
     state.active.push(false);
     state.radius.push(s.radius);
+    state.collides.push(s.collides);
+    if let Some(motion) = s.motion {
+        let index = state.bodies.len() - 1;
+        state.motion.push((index, motion, s.body.position));
+    }
     state.asleep.push(Some((s.island, s.body)));
     state.entered.push(s.entity);
 }
