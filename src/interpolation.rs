@@ -28,7 +28,7 @@
 use bevy::prelude::*;
 
 use crate::dynamics::{RigidBody, Sleeping};
-use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+use crate::schedule::{PhysicsSchedule, PhysicsSystems, PhysicsTime};
 
 /// Draws this body between its last two physics poses, so it moves smoothly whatever the frame
 /// rate. Static bodies never move and are not interpolated. See [`crate::interpolation`].
@@ -195,12 +195,19 @@ pub fn record_physics_poses(mut bodies: Query<(&Transform, &mut InterpolationSta
 }
 
 /// After the fixed-step loop: draws each awake interpolated body at the elapsed fraction of the
-/// step between its last two physics poses. A sleeping body stays at its physics pose.
+/// step between its last two physics poses. A sleeping body stays at its physics pose, and so
+/// does every body while [`PhysicsTime`] is paused.
 pub fn interpolate_transforms(
     time: Res<Time<Fixed>>,
+    clock: Option<Res<PhysicsTime>>,
     mut bodies: Query<(&mut Transform, &mut InterpolationState, Has<Sleeping>)>,
 ) {
-    let alpha = time.overstep_fraction();
+    // Paused, physics writes no new pose: every body is shown where it stopped.
+    let alpha = if clock.is_some_and(|c| !c.is_running()) {
+        1.0
+    } else {
+        time.overstep_fraction()
+    };
     for (mut transform, mut state, sleeping) in &mut bodies {
         if !state.valid {
             continue;

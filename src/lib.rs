@@ -23,15 +23,18 @@ pub use messages::{CollisionEnd, CollisionEnded, CollisionStart, CollisionStarte
 pub mod prelude {
     pub use crate::PhysicsPlugins;
     pub use crate::collision::{
-        Collider, CollidingEntities, CollisionEventsEnabled, CollisionLayers, LayerMask,
-        PhysicsLayer, Sensor,
+        Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers,
+        LayerMask, PhysicsLayer, Sensor,
     };
     #[cfg(feature = "debug")]
     pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};
     pub use crate::dynamics::{
-        AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
-        LockedAxes, Mass, PhysicsLengthUnit, Quarantined, Restitution, RigidBody, SleepConfig,
-        Sleeping, SolverConfig, SolverMethod, SolverStats,
+        AccumulatedForces, AngularDamping, AngularVelocity, ComputedMass,
+        ConstantAngularAcceleration, ConstantForce, ConstantLinearAcceleration, ConstantLocalForce,
+        ConstantLocalTorque, ConstantTorque, Density, Forces, Friction, Gravity, GravityScale,
+        ImpactMessages, LinearDamping, LinearVelocity, LockedAxes, Mass, MaxAngularSpeed,
+        MaxLinearSpeed, PhysicsLengthUnit, Quarantined, Restitution, RigidBody, RigidBodyDisabled,
+        SleepConfig, Sleeping, SleepingDisabled, SolverConfig, SolverMethod, SolverStats,
     };
     pub use crate::interpolation::{
         InterpolationConfig, InterpolationPlugin, TransformInterpolation,
@@ -39,7 +42,7 @@ pub mod prelude {
     pub use crate::messages::{
         CollisionEnd, CollisionEnded, CollisionStart, CollisionStarted, Impact,
     };
-    pub use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+    pub use crate::schedule::{PhysicsSchedule, PhysicsSystems, PhysicsTime};
 }
 
 /// All of impact3d's plugins. `PhysicsPlugins::default()` steps physics in `FixedPostUpdate`;

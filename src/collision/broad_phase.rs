@@ -1,136 +1,383 @@
-//! Broad phase: sweep and prune over axis-aligned bounding boxes.
+//! Broad phase: a persistent bounding volume hierarchy over the bodies' boxes
+//! ([`BroadPhaseTree`]), and the box tests the sleeping set's sorted boxes share.
 
-use parry3d::bounding_volume::Aabb;
+use bevy::prelude::*;
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::partitioning::{Bvh, BvhNode, BvhWorkspace};
+use parry3d::query::{Ray, RayCast};
 
-/// Finds every pair of overlapping boxes by sweep and prune: sort the boxes by their lower
-/// bound on the axis where their centres spread most, then compare each box only with those
-/// whose interval on that axis starts before it ends. Writes `(i, j)` with `i < j`, sorted, into
-/// `pairs`; `order` is scratch space. Ties are broken by index, so the output is deterministic.
+/// How far a leaf's box in the tree reaches beyond its body's box on every side, in metres
+/// times the length unit: a body whose box stays inside its leaf's (a resting one) leaves the
+/// tree untouched. A wider margin lets more leaf pairs through to the exact test: in a cloud
+/// of 10,000 boxes of 0.52 m with 39,181 overlapping pairs, the leaves overlap in 48,591 pairs
+/// with this margin, in 100,854 with 0.1 m.
+pub const TREE_MARGIN: f32 = 0.02;
+
+/// A leaf id or body index meaning "none".
+const NONE: u32 = u32::MAX;
+
+/// A persistent bounding volume hierarchy (parry's [`Bvh`]) over the boxes of every body with a
+/// collider: awake, static and sleeping. It lives across steps: a body is inserted when it
+/// first appears in a step, removed when it is despawned, loses its collider or is quarantined,
+/// and its leaf is updated only when its box leaves the leaf's box (the body's box widened by
+/// [`TREE_MARGIN`]), so unchanged static and sleeping bodies cost nothing. After a step's
+/// updates the tree is refitted and incrementally optimised (a part of it rebuilt each step).
 ///
-/// Unbounded boxes (a half-space's) overlap everything and stay correct: they sort first.
+/// Unbounded bodies (a half-space, or a box wider than 1e6 m) are kept out of the tree and
+/// listed by [`unbounded`](Self::unbounded): a query must test them directly.
+///
+/// The built-in broad phase ([`crate::pipeline::BroadPhasePlugin`]) maintains it and reads it
+/// for the step's pairs (with a replacement broad phase it stays empty); it can be read from
+/// any system for spatial queries, between steps. It holds the bodies as the last step's broad
+/// phase saw them: a body despawned, moved or spawned since is updated in the next step. Its
+/// structure depends on the order bodies were inserted in (that order is deterministic); what
+/// a query finds does not.
 ///
 /// # Examples
 ///
-/// ```
-/// use bevy::math::Vec3;
-/// use parry3d::bounding_volume::Aabb;
-/// use impact3d::collision::broad_phase::sweep_and_prune;
+/// Which bodies a ray along +x from the origin may hit, nearest box first:
 ///
-/// let boxes = [
-///     Aabb::new(Vec3::ZERO, Vec3::ONE),
-///     Aabb::new(Vec3::splat(0.5), Vec3::splat(1.5)),
-///     Aabb::new(Vec3::splat(3.0), Vec3::splat(4.0)),
-/// ];
-/// let (mut pairs, mut order) = (Vec::new(), Vec::new());
-/// sweep_and_prune(&boxes, &mut pairs, &mut order);
-/// assert_eq!(pairs, vec![(0, 1)]);
 /// ```
-pub fn sweep_and_prune(aabbs: &[Aabb], pairs: &mut Vec<(u32, u32)>, order: &mut Vec<u32>) {
-    pairs.clear();
-    let axis = sweep_axis(aabbs);
-    order.clear();
-    order.extend(0..aabbs.len() as u32);
-    sort_by_lower_bound(aabbs, order, axis);
-    for (k, &i) in order.iter().enumerate() {
-        for j in forward_overlaps(aabbs, order, k, axis) {
-            pairs.push((i.min(j), i.max(j)));
-        }
-    }
-    pairs.sort_unstable();
+/// use bevy::prelude::*;
+/// use impact3d::collision::BroadPhaseTree;
+/// use impact3d::prelude::*;
+/// use parry3d::query::Ray;
+///
+/// let mut app = impact3d::scenes::headless_app(60.0);
+/// let ball = app
+///     .world_mut()
+///     .spawn((RigidBody::Static, Collider::sphere(0.5), Transform::from_xyz(3.0, 0.0, 0.0)))
+///     .id();
+/// impact3d::scenes::run_steps(&mut app, 1);
+/// let tree = app.world().resource::<BroadPhaseTree>();
+/// let ray = Ray::new(Vec3::ZERO, Vec3::X);
+/// let mut hits: Vec<(Entity, f32)> = tree.cast_ray(&ray, 100.0).collect();
+/// hits.sort_by(|a, b| a.1.total_cmp(&b.1));
+/// assert_eq!(hits[0].0, ball);
+/// // The ray enters the ball's box (radius 0.5 widened by half the 0.02 m contact margin).
+/// assert!((hits[0].1 - 2.49).abs() < 1e-5);
+/// ```
+#[derive(Resource, Default)]
+pub struct BroadPhaseTree {
+    bvh: Bvh,
+    workspace: BvhWorkspace,
+    /// Each leaf id's record (a free id's entity is [`Entity::PLACEHOLDER`]).
+    leaves: Vec<Leaf>,
+    /// Each leaf id's body index in the step's arrays ([`NONE`] when it sits the step out, or
+    /// is free), apart from `leaves` so that the pair search reads it from a small array.
+    index: Vec<u32>,
+    /// Leaf ids free for reuse.
+    free: Vec<u32>,
+    /// The leaf id of each entity, by entity index ([`NONE`] for none).
+    leaf_of: Vec<u32>,
+    /// The unbounded bodies of the last step: entity, box, body index in that step.
+    unbounded: Vec<(Entity, Aabb, u32)>,
+    /// The leaves whose body index was set by the last [`sync`](Self::sync).
+    in_step: Vec<u32>,
+    /// The tree was refitted since the last [`optimize`](Self::optimize).
+    refitted: bool,
 }
 
-/// The pairs of overlapping boxes of which at least one is `active`, as [`sweep_and_prune`]
-/// would give them filtered to those: `(i, j)` with `i < j`, sorted. Only the active boxes are
-/// swept: forward as in `sweep_and_prune`, and backward over the inactive boxes that start at
-/// most the widest box's width before them. Inactive boxes (sleeping bodies, unchanged static
-/// ones) cost nothing beyond the sort, and nothing at all when no box is active.
-///
-/// # Examples
-///
-/// ```
-/// use bevy::math::Vec3;
-/// use parry3d::bounding_volume::Aabb;
-/// use impact3d::collision::broad_phase::pairs_with_active;
-///
-/// let boxes = [
-///     Aabb::new(Vec3::ZERO, Vec3::ONE),
-///     Aabb::new(Vec3::splat(0.5), Vec3::splat(1.5)),
-///     Aabb::new(Vec3::splat(1.2), Vec3::splat(2.0)),
-/// ];
-/// let (mut pairs, mut order) = (Vec::new(), Vec::new());
-/// pairs_with_active(&boxes, &[false, false, true], &mut pairs, &mut order);
-/// assert_eq!(pairs, vec![(1, 2)]);
-/// pairs_with_active(&boxes, &[false; 3], &mut pairs, &mut order);
-/// assert!(pairs.is_empty());
-/// ```
-pub fn pairs_with_active(
-    aabbs: &[Aabb],
-    active: &[bool],
-    pairs: &mut Vec<(u32, u32)>,
-    order: &mut Vec<u32>,
-) {
-    pairs.clear();
-    if !active.iter().any(|&a| a) {
-        return;
+/// What the tree keeps about one leaf.
+#[derive(Clone, Copy, Debug)]
+struct Leaf {
+    entity: Entity,
+    /// The body's box, as last synced.
+    aabb: Aabb,
+    /// The leaf's box in the tree: `aabb` when it was last inserted, widened by the margin.
+    fat: Aabb,
+}
+
+impl BroadPhaseTree {
+    /// The tree. A leaf's data is its leaf id ([`entity`](Self::entity) gives its body); a
+    /// leaf's box holds its body's box (widened by [`TREE_MARGIN`]), and an inner node's holds
+    /// its children's.
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
     }
-    let axis = sweep_axis(aabbs);
-    let unbounded = is_unbounded;
-    // Unbounded boxes (a half-space's) are checked against every active box directly; the
-    // others are sorted by their lower bound on the axis.
-    order.clear();
-    order.extend((0..aabbs.len() as u32).filter(|&i| !unbounded(&aabbs[i as usize])));
-    sort_by_lower_bound(aabbs, order, axis);
-    let widest = order
-        .iter()
-        .map(|&i| aabbs[i as usize].maxs[axis] - aabbs[i as usize].mins[axis])
-        .fold(0.0f32, f32::max);
-    let huge: Vec<u32> = (0..aabbs.len() as u32)
-        .filter(|&i| unbounded(&aabbs[i as usize]))
-        .collect();
-    let any_inactive = active.iter().any(|&a| !a);
-    let push = |pairs: &mut Vec<(u32, u32)>, i: u32, j: u32| pairs.push((i.min(j), i.max(j)));
-    for &h in &huge {
-        let a = &aabbs[h as usize];
-        for j in 0..aabbs.len() as u32 {
-            // An unbounded box pairs with the boxes it overlaps when either is active; pairs
-            // of two unbounded boxes are found once, from the smaller index.
-            let both_huge = unbounded(&aabbs[j as usize]);
-            if j != h
-                && (active[h as usize] || active[j as usize])
-                && (!both_huge || h < j)
-                && overlaps(a, &aabbs[j as usize])
-            {
-                push(pairs, h, j);
+
+    /// The body of leaf `leaf`, if the leaf is in the tree.
+    pub fn entity(&self, leaf: u32) -> Option<Entity> {
+        self.leaves
+            .get(leaf as usize)
+            .map(|l| l.entity)
+            .filter(|&e| e != Entity::PLACEHOLDER)
+    }
+
+    /// The leaf of `entity`, if it is in the tree.
+    pub fn leaf(&self, entity: Entity) -> Option<u32> {
+        let leaf = *self.leaf_of.get(entity.index_u32() as usize)?;
+        (leaf != NONE && self.leaves[leaf as usize].entity == entity).then_some(leaf)
+    }
+
+    /// The box of `entity` as the broad phase last saw it (in the tree or unbounded): its
+    /// collider's box widened by half the contact margin and swept along its motion in that
+    /// step (see [`PhysicsState::aabbs`](crate::pipeline::PhysicsState::aabbs)); a sleeping
+    /// body's box from the step it was last read in.
+    pub fn aabb(&self, entity: Entity) -> Option<Aabb> {
+        match self.leaf(entity) {
+            Some(leaf) => Some(self.leaves[leaf as usize].aabb),
+            None => self
+                .unbounded
+                .iter()
+                .find(|u| u.0 == entity)
+                .map(|&(_, aabb, _)| aabb),
+        }
+    }
+
+    /// The unbounded bodies (a half-space's box, or one wider than 1e6 m) and their boxes: they
+    /// are not in the tree, so a query tests them directly.
+    pub fn unbounded(&self) -> impl Iterator<Item = (Entity, Aabb)> + '_ {
+        self.unbounded.iter().map(|&(e, aabb, _)| (e, aabb))
+    }
+
+    /// The candidates of a ray cast: every body (in the tree or unbounded) whose box `ray`
+    /// enters within `max_time_of_impact` (in units of the ray's direction), with the time at
+    /// which it enters it (0 from inside), in no particular order. The hit on a body's shape,
+    /// if any, is at or after that time.
+    pub fn cast_ray<'a>(
+        &'a self,
+        ray: &'a Ray,
+        max_time_of_impact: f32,
+    ) -> impl Iterator<Item = (Entity, f32)> + 'a {
+        let enter = move |aabb: &Aabb| aabb.cast_local_ray(ray, max_time_of_impact, true);
+        self.bvh
+            .leaves(move |node: &BvhNode| enter(&node.aabb()).is_some())
+            .filter_map(move |leaf| {
+                let l = &self.leaves[leaf as usize];
+                enter(&l.aabb).map(|t| (l.entity, t))
+            })
+            .chain(
+                self.unbounded
+                    .iter()
+                    .filter_map(move |&(e, aabb, _)| enter(&aabb).map(|t| (e, t))),
+            )
+    }
+
+    /// Removes `entity` from the tree (it was despawned, lost its collider or was
+    /// quarantined). Returns whether it was there.
+    pub(crate) fn remove(&mut self, entity: Entity) -> bool {
+        let Some(leaf) = self.leaf(entity) else {
+            return false;
+        };
+        self.remove_leaf(leaf);
+        true
+    }
+
+    fn remove_leaf(&mut self, leaf: u32) {
+        self.bvh.remove(leaf);
+        let l = &mut self.leaves[leaf as usize];
+        self.leaf_of[l.entity.index_u32() as usize] = NONE;
+        l.entity = Entity::PLACEHOLDER;
+        self.index[leaf as usize] = NONE;
+        self.free.push(leaf);
+    }
+
+    /// Brings the tree up to date with a step's bodies, `entities[i]` with box `aabbs[i]` (in
+    /// index order, so the tree is built deterministically): a new body is inserted with its
+    /// box widened by `margin`, a body whose box left its leaf's box gets a new leaf box, the
+    /// others are left alone. Then, if anything changed, the tree is refitted. Records each
+    /// body's index for [`pairs_with_active`](Self::pairs_with_active); bodies in the tree but
+    /// not in `entities` (sleeping ones sitting the step out) are left as they are.
+    pub(crate) fn sync(&mut self, entities: &[Entity], aabbs: &[Aabb], margin: f32) {
+        for leaf in self.in_step.drain(..) {
+            self.index[leaf as usize] = NONE;
+        }
+        self.unbounded.clear();
+        let mut changed = false;
+        for (i, (&entity, aabb)) in entities.iter().zip(aabbs).enumerate() {
+            if is_unbounded(aabb) {
+                changed |= self.remove(entity);
+                self.unbounded.push((entity, *aabb, i as u32));
+                continue;
             }
+            let leaf = match self.leaf(entity) {
+                Some(leaf) => {
+                    let l = &mut self.leaves[leaf as usize];
+                    if l.aabb != *aabb {
+                        l.aabb = *aabb;
+                        if !l.fat.contains(aabb) {
+                            l.fat = aabb.loosened(margin);
+                            self.bvh.insert_or_update_partially(l.fat, leaf, 0.0);
+                            changed = true;
+                        }
+                    }
+                    leaf
+                }
+                None => {
+                    let leaf = self.insert(entity, aabb, margin);
+                    changed = true;
+                    leaf
+                }
+            };
+            self.index[leaf as usize] = i as u32;
+            self.in_step.push(leaf);
+        }
+        if changed {
+            self.bvh.refit(&mut self.workspace);
+            self.refitted = true;
         }
     }
-    for (k, &i) in order.iter().enumerate() {
-        if !active[i as usize] {
-            continue;
+
+    /// Inserts a leaf for `entity` (not in the tree) and returns its id. An entity whose index
+    /// still maps to a leaf of an older entity (despawned unseen) replaces it.
+    fn insert(&mut self, entity: Entity, aabb: &Aabb, margin: f32) -> u32 {
+        let slot = entity.index_u32() as usize;
+        if slot >= self.leaf_of.len() {
+            self.leaf_of.resize(slot + 1, NONE);
         }
-        let a = &aabbs[i as usize];
-        // Forward, as in `sweep_and_prune`: every box starting before this one ends.
-        for j in forward_overlaps(aabbs, order, k, axis) {
-            push(pairs, i, j);
+        if self.leaf_of[slot] != NONE {
+            self.remove_leaf(self.leaf_of[slot]);
         }
-        // Backward, for the inactive boxes that start before this one (an active one there
-        // found this box in its own forward sweep): they start at most `widest` earlier.
-        if any_inactive {
-            let from = a.mins[axis] - widest;
-            let start = order[..k].partition_point(|&j| aabbs[j as usize].mins[axis] < from);
-            for &j in &order[start..k] {
-                if !active[j as usize] && overlaps(a, &aabbs[j as usize]) {
-                    push(pairs, i, j);
+        let record = Leaf {
+            entity,
+            aabb: *aabb,
+            fat: aabb.loosened(margin),
+        };
+        let leaf = match self.free.pop() {
+            Some(leaf) => {
+                self.leaves[leaf as usize] = record;
+                leaf
+            }
+            None => {
+                self.leaves.push(record);
+                self.index.push(NONE);
+                self.leaves.len() as u32 - 1
+            }
+        };
+        self.leaf_of[slot] = leaf;
+        self.bvh.insert_or_update_partially(record.fat, leaf, 0.0);
+        leaf
+    }
+
+    /// One step of the tree's incremental optimisation (parry rebuilds a few of its subtrees),
+    /// if it was refitted since the last call: a tree that did not change needs none.
+    pub(crate) fn optimize(&mut self) {
+        if std::mem::take(&mut self.refitted) {
+            self.bvh.optimize_incremental(&mut self.workspace);
+        }
+    }
+
+    /// The pairs of the last [`sync`](Self::sync)'s bodies whose boxes `aabbs` overlap (faces
+    /// touching included), at least one of them `active`, as body indices `(i, j)`, `i < j`,
+    /// sorted; the unbounded boxes are tested against every box directly. The pairs among the
+    /// bounded boxes are found by [`PairSearch::for_active`]'s choice, each leaf pair then
+    /// tested exactly; both searches give the same pairs.
+    pub(crate) fn pairs_with_active(
+        &mut self,
+        aabbs: &[Aabb],
+        active: &[bool],
+        pairs: &mut Vec<(u32, u32)>,
+    ) {
+        let search = PairSearch::for_active(self, active);
+        self.pairs_with_active_by(search, aabbs, active, pairs);
+    }
+
+    fn pairs_with_active_by(
+        &mut self,
+        search: PairSearch,
+        aabbs: &[Aabb],
+        active: &[bool],
+        pairs: &mut Vec<(u32, u32)>,
+    ) {
+        pairs.clear();
+        if !active.iter().any(|&a| a) {
+            return;
+        }
+        for &(_, a, h) in &self.unbounded {
+            for j in 0..aabbs.len() as u32 {
+                // An unbounded box pairs with the boxes it overlaps when either is active;
+                // pairs of two unbounded boxes are found once, from the smaller index.
+                let both_unbounded = is_unbounded(&aabbs[j as usize]);
+                if j != h
+                    && (active[h as usize] || active[j as usize])
+                    && (!both_unbounded || h < j)
+                    && overlaps(&a, &aabbs[j as usize])
+                {
+                    pairs.push((h.min(j), h.max(j)));
                 }
             }
         }
+        // A leaf of a body sitting the step out (asleep) has no index: a sleeping body whose
+        // box an active box overlaps was brought into the step before this.
+        let index = &self.index;
+        let mut test = |i: u32, j: u32| {
+            if j != NONE
+                && (active[i as usize] || active[j as usize])
+                && overlaps(&aabbs[i as usize], &aabbs[j as usize])
+            {
+                pairs.push((i.min(j), i.max(j)));
+            }
+        };
+        match search {
+            PairSearch::Queries => {
+                for &leaf in &self.in_step {
+                    let i = index[leaf as usize];
+                    if !active[i as usize] {
+                        continue;
+                    }
+                    let query = BvhNode::leaf(aabbs[i as usize], leaf);
+                    for found in self.bvh.leaves(|node: &BvhNode| node.intersects(&query)) {
+                        let j = index[found as usize];
+                        // A pair of two active bodies is kept from the smaller index.
+                        if j != i && !(j != NONE && active[j as usize] && j < i) {
+                            test(i, j);
+                        }
+                    }
+                }
+            }
+            PairSearch::Traversal => {
+                self.bvh
+                    .traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| {
+                        let (i, j) = (index[a as usize], index[b as usize]);
+                        if i != NONE {
+                            test(i, j);
+                        }
+                    });
+            }
+        }
+        pairs.sort_unstable();
     }
-    pairs.sort_unstable();
-    pairs.dedup();
 }
 
-/// A box too large to sort usefully (a half-space's), or with a NaN extent: such boxes are
-/// checked against every box directly.
+/// How [`BroadPhaseTree::pairs_with_active`] finds the overlapping leaves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PairSearch {
+    /// Each active body's box is looked up in the tree: costs about the active bodies times
+    /// the tree's depth.
+    Queries,
+    /// The tree is traversed against itself once (parry's `traverse_bvtt_single_tree`),
+    /// reporting every pair of overlapping leaves: costs about the leaves plus their
+    /// overlapping pairs, whatever is active.
+    Traversal,
+}
+
+impl PairSearch {
+    /// Queries when fewer than one leaf in [`QUERIES_BELOW`] is an active body's, else one
+    /// traversal.
+    fn for_active(tree: &BroadPhaseTree, active: &[bool]) -> PairSearch {
+        let queries = tree
+            .in_step
+            .iter()
+            .filter(|&&leaf| active[tree.index[leaf as usize] as usize])
+            .count();
+        if queries * QUERIES_BELOW < tree.bvh.leaf_count() as usize {
+            PairSearch::Queries
+        } else {
+            PairSearch::Traversal
+        }
+    }
+}
+
+/// One query per active body is cheaper than one traversal of the whole tree while fewer than
+/// one leaf in this many is an active body's. Measured on 10,000 boxes of 0.52 m (release, 2
+/// busy cores, 2026-12-02): on a grid 2 m apart a query costs 0.1-0.2 us and the traversal
+/// 0.08-0.1 ms, even near one active box in 16; in a random cloud 11 m wide (8 overlaps a
+/// box) a query costs 0.8-2 us and the traversal 2.4-4.7 ms, even near one in 4.
+const QUERIES_BELOW: usize = 8;
+
+/// A box too large to sort or put in a tree usefully (a half-space's), or with a NaN extent:
+/// such boxes are checked against every box directly.
 pub(crate) fn is_unbounded(b: &Aabb) -> bool {
     (b.maxs - b.mins).max_element().partial_cmp(&1e6) != Some(std::cmp::Ordering::Less)
 }
@@ -145,22 +392,6 @@ pub(crate) fn sort_by_lower_bound(aabbs: &[Aabb], order: &mut [u32], axis: usize
     });
 }
 
-/// The boxes after `order[k]` in the sorted `order` that overlap it: the sweep stops at the
-/// first that starts after it ends on `axis`.
-fn forward_overlaps<'a>(
-    aabbs: &'a [Aabb],
-    order: &'a [u32],
-    k: usize,
-    axis: usize,
-) -> impl Iterator<Item = u32> + 'a {
-    let a = &aabbs[order[k] as usize];
-    order[k + 1..]
-        .iter()
-        .copied()
-        .take_while(move |&j| aabbs[j as usize].mins[axis] <= a.maxs[axis])
-        .filter(move |&j| overlaps(a, &aabbs[j as usize]))
-}
-
 /// Whether two boxes overlap (touching counts).
 pub(crate) fn overlaps(a: &Aabb, b: &Aabb) -> bool {
     (0..3).all(|k| a.mins[k] <= b.maxs[k] && b.mins[k] <= a.maxs[k])
@@ -172,9 +403,8 @@ pub(crate) fn sweep_axis(aabbs: &[Aabb]) -> usize {
     let mut sum_sq = [0.0f64; 3];
     let mut n = 0.0f64;
     for b in aabbs {
-        let extent = b.maxs - b.mins;
         // Unbounded boxes (a half-space's) and NaN extents say nothing about the spread.
-        if extent.max_element().partial_cmp(&1e6) != Some(std::cmp::Ordering::Less) {
+        if is_unbounded(b) {
             continue;
         }
         n += 1.0;
@@ -198,54 +428,233 @@ mod tests {
     use super::*;
     use bevy::math::Vec3;
 
-    /// Sweep and prune finds exactly the pairs the all-pairs test finds, on a pseudo-random
-    /// cloud of boxes (a fixed linear congruential sequence, so the test is reproducible).
-    #[test]
-    fn matches_all_pairs() {
-        let mut seed = 12345u32;
-        let mut next = || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
-        let mut boxes: Vec<Aabb> = (0..300)
-            .map(|_| {
-                let c = Vec3::new(next() * 20.0, next() * 5.0, next() * 20.0);
-                let h = Vec3::new(next(), next(), next()) * 0.8 + 0.1;
-                Aabb::new(c - h, c + h)
-            })
-            .collect();
-        boxes.push(Aabb::new(
-            Vec3::splat(-f32::MAX * 0.5),
-            Vec3::splat(f32::MAX * 0.5),
-        ));
-        let (mut pairs, mut order) = (Vec::new(), Vec::new());
-        sweep_and_prune(&boxes, &mut pairs, &mut order);
-        let mut brute = Vec::new();
-        for i in 0..boxes.len() {
-            for j in i + 1..boxes.len() {
-                if overlaps(&boxes[i], &boxes[j]) {
-                    brute.push((i as u32, j as u32));
+    /// A fixed linear congruential sequence in [0, 1), so the tests are reproducible.
+    struct Lcg(u32);
+
+    impl Lcg {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_mul(1664525).wrapping_add(1013904223);
+            (self.0 >> 8) as f32 / (1u32 << 24) as f32
+        }
+
+        fn aabb(&mut self) -> Aabb {
+            let c = Vec3::new(self.next() * 20.0, self.next() * 5.0, self.next() * 20.0);
+            let h = Vec3::new(self.next(), self.next(), self.next()) * 0.8 + 0.1;
+            Aabb::new(c - h, c + h)
+        }
+    }
+
+    /// A body of the test world: its box, whether it sits the step out (as a sleeping body
+    /// does: in the tree, not in the step's arrays, its box unchanged), and whether it is new
+    /// (a new body enters the step: a sleeping body was in a step before).
+    struct Body {
+        entity: Entity,
+        aabb: Aabb,
+        out: bool,
+        new: bool,
+    }
+
+    impl Body {
+        fn new(entity: Entity, aabb: Aabb) -> Body {
+            Body {
+                entity,
+                aabb,
+                out: false,
+                new: true,
+            }
+        }
+    }
+
+    /// The answer the tree must give, found the slow way: every pair of the step's boxes that
+    /// overlap (faces touching included), at least one of them active.
+    fn all_pairs(aabbs: &[Aabb], active: &[bool]) -> Vec<(u32, u32)> {
+        let mut pairs = Vec::new();
+        for i in 0..aabbs.len() {
+            for j in i + 1..aabbs.len() {
+                if (active[i] || active[j]) && aabbs[i].intersects(&aabbs[j]) {
+                    pairs.push((i as u32, j as u32));
                 }
             }
         }
-        assert_eq!(pairs, brute);
-        assert!(
-            pairs.len() > 300,
-            "the unbounded box pairs with all 300 others"
-        );
-        // With a third of the boxes active (the unbounded one among them, and not), the active
-        // sweep gives exactly the all-pairs result filtered to pairs with an active box.
-        for unbounded_active in [false, true] {
-            let mut active: Vec<bool> = (0..boxes.len()).map(|i| i % 3 == 0).collect();
-            active[300] = unbounded_active;
-            let mut got = Vec::new();
-            pairs_with_active(&boxes, &active, &mut got, &mut order);
-            let expected: Vec<_> = brute
-                .iter()
-                .copied()
-                .filter(|&(i, j)| active[i as usize] || active[j as usize])
-                .collect();
-            assert_eq!(got, expected);
+        pairs
+    }
+
+    /// Over 12 steps of a seeded random cloud of 300 boxes and two unbounded ones (a
+    /// half-space's, and one wider than 1e6 m), with a third of the boxes moving each step (some
+    /// within their leaf's margin, some far), some despawned (one entity index reused by a new
+    /// entity), some inserted, some sitting steps out, one becoming unbounded and bounded
+    /// again, and the active set changing, both pair searches give exactly the all-pairs
+    /// answer; the tree holds exactly the live bounded bodies with their boxes, and a ray cast
+    /// gives exactly the bodies whose boxes the ray enters.
+    #[test]
+    fn tree_gives_the_all_pairs_answer_as_bodies_come_move_and_go() {
+        let mut world = World::new();
+        let mut rng = Lcg(12345);
+        let mut bodies: Vec<Body> = (0..300)
+            .map(|_| Body::new(world.spawn_empty().id(), rng.aabb()))
+            .collect();
+        let unbounded = [
+            Aabb::new(Vec3::splat(-f32::MAX * 0.5), Vec3::splat(f32::MAX * 0.5)),
+            Aabb::new(Vec3::new(-1e7, -1.0, -1e7), Vec3::new(1e7, 0.5, 1e7)),
+        ];
+        for aabb in unbounded {
+            bodies.push(Body::new(world.spawn_empty().id(), aabb));
         }
+        let mut tree = BroadPhaseTree::default();
+        let mut gone = Vec::new();
+        let mut searches = Vec::new();
+        for step in 0..12 {
+            if step > 0 {
+                // Despawn a few, and one more whose index is reused at once by an entity of
+                // the next generation that the tree was never told about.
+                for _ in 0..4 {
+                    let k = (rng.next() * 300.0) as usize;
+                    let body = bodies.remove(k);
+                    tree.remove(body.entity);
+                    gone.push(body.entity);
+                }
+                let k = (rng.next() * 290.0) as usize;
+                let body = bodies.remove(k);
+                gone.push(body.entity);
+                let reused = Entity::from_index_and_generation(
+                    body.entity.index(),
+                    body.entity.generation().after_versions(1),
+                );
+                bodies.push(Body::new(reused, rng.aabb()));
+                for _ in 0..5 {
+                    bodies.push(Body::new(world.spawn_empty().id(), rng.aabb()));
+                }
+                for body in &mut bodies {
+                    if std::mem::take(&mut body.new) || is_unbounded(&body.aabb) {
+                        continue;
+                    }
+                    // A body sits a step out one time in ten, as it is: unmoved.
+                    body.out = rng.next() < 0.1;
+                    if !body.out && rng.next() < 0.33 {
+                        // Moves by up to 0.01 m (within the leaf's margin) or up to 2 m.
+                        let reach = if rng.next() < 0.5 { 0.01 } else { 2.0 };
+                        let d = (Vec3::new(rng.next(), rng.next(), rng.next()) - 0.5) * reach;
+                        body.aabb = Aabb::new(body.aabb.mins + d, body.aabb.maxs + d);
+                    }
+                }
+            }
+            // Body 7 is unbounded in steps 4 and 5 (its collider became a half-space).
+            if step == 4 {
+                bodies[7].aabb = unbounded[0];
+                bodies[7].out = false;
+            }
+            if step == 6 {
+                bodies[7].aabb = rng.aabb();
+            }
+            let in_step: Vec<&Body> = bodies.iter().filter(|b| !b.out).collect();
+            let entities: Vec<Entity> = in_step.iter().map(|b| b.entity).collect();
+            let aabbs: Vec<Aabb> = in_step.iter().map(|b| b.aabb).collect();
+            // Most steps a third of the bodies are active, the unbounded ones among them in
+            // turn; in the last two steps only one or two bodies.
+            let active: Vec<bool> = (0..aabbs.len())
+                .map(|i| match step {
+                    10 => i == 5,
+                    11 => i == 5 || is_unbounded(&aabbs[i]),
+                    _ => (i + step) % 3 == 0,
+                })
+                .collect();
+            tree.sync(&entities, &aabbs, TREE_MARGIN);
+            let expected = all_pairs(&aabbs, &active);
+            // A third active pairs with many; one body at least with the box of half-space
+            // size, inside which every box is; with it active, every box pairs with it.
+            let least = match step {
+                10 => 1,
+                11 => aabbs.len() - 1,
+                _ => 100,
+            };
+            assert!(
+                expected.len() >= least,
+                "step {step}: {} pairs",
+                expected.len()
+            );
+            for search in [PairSearch::Queries, PairSearch::Traversal] {
+                let mut pairs = Vec::new();
+                tree.pairs_with_active_by(search, &aabbs, &active, &mut pairs);
+                assert_eq!(pairs, expected, "step {step}, {search:?}");
+            }
+            let mut pairs = Vec::new();
+            tree.pairs_with_active(&aabbs, &active, &mut pairs);
+            assert_eq!(pairs, expected, "step {step}, the search chosen");
+            searches.push(PairSearch::for_active(&tree, &active));
+            tree.optimize();
+
+            let bounded: Vec<&Body> = bodies.iter().filter(|b| !is_unbounded(&b.aabb)).collect();
+            assert_eq!(tree.bvh().leaf_count() as usize, bounded.len());
+            for body in &bounded {
+                let leaf = tree.leaf(body.entity).expect("a live body has a leaf");
+                assert_eq!(tree.entity(leaf), Some(body.entity));
+                assert_eq!(tree.aabb(body.entity), Some(body.aabb));
+            }
+            for &entity in &gone {
+                assert_eq!(tree.leaf(entity), None);
+                assert_eq!(tree.aabb(entity), None);
+            }
+            let listed: Vec<Entity> = tree.unbounded().map(|(e, _)| e).collect();
+            let expected: Vec<Entity> = in_step
+                .iter()
+                .filter(|b| is_unbounded(&b.aabb))
+                .map(|b| b.entity)
+                .collect();
+            assert_eq!(listed, expected);
+
+            for _ in 0..4 {
+                let origin = Vec3::new(rng.next() * 20.0, 10.0, rng.next() * 20.0);
+                let dir = Vec3::new(rng.next() - 0.5, -1.0, rng.next() - 0.5);
+                let ray = Ray::new(origin, dir);
+                let mut hits: Vec<(Entity, f32)> = tree.cast_ray(&ray, 12.0).collect();
+                hits.sort_by_key(|h| h.0);
+                // The tree's boxes for the bodies sitting out, the step's for the others.
+                let mut expected: Vec<(Entity, f32)> = bodies
+                    .iter()
+                    .filter(|b| !(b.out && is_unbounded(&b.aabb)))
+                    .filter_map(|b| {
+                        let t = b.aabb.cast_local_ray(&ray, 12.0, true)?;
+                        Some((b.entity, t))
+                    })
+                    .collect();
+                expected.sort_by_key(|h| h.0);
+                assert_eq!(hits, expected, "step {step}");
+            }
+        }
+        // Both searches were chosen: traversals while a third is active, queries for one or
+        // two active bodies among 300.
+        assert_eq!(searches[0], PairSearch::Traversal);
+        assert_eq!(searches[10..], [PairSearch::Queries, PairSearch::Queries]);
+    }
+
+    /// Trees of no, one, two and three leaves (parry keeps a partial root below two) give the
+    /// all-pairs answer, and removing every body empties the tree.
+    #[test]
+    fn small_trees() {
+        let mut world = World::new();
+        let entities: Vec<Entity> = (0..3).map(|_| world.spawn_empty().id()).collect();
+        let all = [
+            Aabb::new(Vec3::ZERO, Vec3::ONE),
+            // Touching the first along x: faces touching count.
+            Aabb::new(Vec3::new(1.0, 0.5, 0.5), Vec3::new(2.0, 1.5, 1.5)),
+            Aabb::new(Vec3::splat(5.0), Vec3::splat(6.0)),
+        ];
+        let mut tree = BroadPhaseTree::default();
+        for n in [0, 1, 2, 3, 2, 1, 0] {
+            for e in &entities[n..] {
+                tree.remove(*e);
+            }
+            tree.sync(&entities[..n], &all[..n], TREE_MARGIN);
+            tree.optimize();
+            assert_eq!(tree.bvh().leaf_count() as usize, n);
+            let active = vec![true; n];
+            let expected = if n >= 2 { vec![(0, 1)] } else { vec![] };
+            for search in [PairSearch::Queries, PairSearch::Traversal] {
+                let mut pairs = Vec::new();
+                tree.pairs_with_active_by(search, &all[..n], &active, &mut pairs);
+                assert_eq!(pairs, expected, "{n} leaves, {search:?}");
+            }
+        }
+        assert!(tree.bvh().is_empty());
     }
 }

@@ -5,6 +5,13 @@ use parry3d::shape::{ShapeType, SharedShape, TriMeshFlags};
 
 use crate::dynamics::validation::{MAX_LENGTH, within};
 
+/// Takes the collider out of contacts: the body still moves (gravity, forces, its velocity)
+/// and keeps the mass its collider gives it, but nothing collides with it (as avian's
+/// `ColliderDisabled`). Remove it and the collider takes part again from the next step.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct ColliderDisabled;
+
 /// The collision shape of a body, placed at the entity's `Transform` (bodies are top-level
 /// entities; scale is ignored). Mass and inertia come from its volume times
 /// [`Density`](crate::dynamics::Density) unless [`Mass`](crate::dynamics::Mass) overrides them.

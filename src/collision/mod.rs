@@ -6,7 +6,8 @@ pub mod layers;
 pub mod narrow_phase;
 pub mod sensor;
 
-pub use collider::Collider;
+pub use broad_phase::BroadPhaseTree;
+pub use collider::{Collider, ColliderDisabled};
 pub use layers::{CollisionLayers, LayerMask, PhysicsLayer};
 pub use narrow_phase::{ContactPair, ContactPairs};
 pub use sensor::{CollidingEntities, CollisionEventsEnabled, Sensor};
@@ -23,6 +24,7 @@ pub struct CollisionPlugin;
 impl Plugin for CollisionPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ContactPairs>()
+            .register_type::<ColliderDisabled>()
             .add_message::<CollisionStarted>()
             .add_message::<CollisionEnded>()
             .add_message::<CollisionStart>()

@@ -1,17 +1,23 @@
 //! Bodies, mass properties and the contact solver.
 
+pub mod forces;
 pub mod mass;
 pub mod rigid_body;
 pub mod sleep;
 pub mod solver;
 pub mod validation;
 
+pub use forces::{
+    AccumulatedForces, AngularDamping, ConstantAngularAcceleration, ConstantForce,
+    ConstantLinearAcceleration, ConstantLocalForce, ConstantLocalTorque, ConstantTorque, Forces,
+    GravityScale, LinearDamping, MaxAngularSpeed, MaxLinearSpeed,
+};
 pub use mass::ComputedMass;
 pub use rigid_body::{
     AngularVelocity, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass, Quarantined,
-    Restitution, RigidBody,
+    Restitution, RigidBody, RigidBodyDisabled,
 };
-pub use sleep::{SleepConfig, SleepTimer, Sleeping};
+pub use sleep::{SleepConfig, SleepTimer, Sleeping, SleepingDisabled};
 pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
 pub use validation::PhysicsLengthUnit;
 
@@ -43,6 +49,20 @@ impl Plugin for DynamicsPlugin {
             .register_type::<Mass>()
             .register_type::<Density>()
             .register_type::<LockedAxes>()
+            .register_type::<RigidBodyDisabled>()
+            .register_type::<SleepingDisabled>()
+            .register_type::<ConstantForce>()
+            .register_type::<ConstantTorque>()
+            .register_type::<ConstantLocalForce>()
+            .register_type::<ConstantLocalTorque>()
+            .register_type::<ConstantLinearAcceleration>()
+            .register_type::<ConstantAngularAcceleration>()
+            .register_type::<AccumulatedForces>()
+            .register_type::<GravityScale>()
+            .register_type::<LinearDamping>()
+            .register_type::<AngularDamping>()
+            .register_type::<MaxLinearSpeed>()
+            .register_type::<MaxAngularSpeed>()
             .register_type::<Gravity>()
             .register_type::<SolverConfig>()
             .register_type::<SolverStats>();

@@ -2,6 +2,7 @@
 
 use bevy::prelude::*;
 
+use super::forces::AccumulatedForces;
 use super::mass::ComputedMass;
 use super::sleep::SleepTimer;
 
@@ -22,7 +23,8 @@ use super::sleep::SleepTimer;
     Friction,
     Density,
     ComputedMass,
-    SleepTimer
+    SleepTimer,
+    AccumulatedForces
 )]
 pub enum RigidBody {
     /// Moved by gravity and contacts.
@@ -110,26 +112,117 @@ impl Default for Density {
     }
 }
 
-/// Locks rotation about world axes: a body with all three locked is a particle, and the solver
-/// skips the angular terms of its contacts. Default: nothing locked.
+/// Locks translation along and rotation about world axes. Default: nothing locked.
+///
+/// - Rotation: a locked axis has its row and column of the world inverse inertia zeroed, so no
+///   contact, torque or impulse turns the body about it; with all three locked the body is a
+///   particle and the solver skips the angular terms of its contacts.
+/// - Translation: the centre of mass keeps its coordinate along a locked axis exactly (the
+///   step starts with that velocity component zeroed, and the coordinate and the component are
+///   put back after the solve). The contact solve itself still treats the body as free along
+///   the axis (its inverse mass is a scalar), so a body that hits a translation-locked one
+///   along a locked axis rebounds as from a free body of the same mass, not as from a wall.
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+///
+/// // A puck that slides in the xz plane and only turns about y.
+/// let puck = LockedAxes::new()
+///     .lock_translation_y()
+///     .lock_rotation_x()
+///     .lock_rotation_z();
+/// assert_eq!(puck.translation, BVec3::new(false, true, false));
+/// assert_eq!(puck.rotation, BVec3::new(true, false, true));
+/// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[reflect(Component, Debug, Default, PartialEq)]
 pub struct LockedAxes {
     /// Rotation about world x, y, z is locked.
     pub rotation: BVec3,
+    /// Translation along world x, y, z is locked.
+    pub translation: BVec3,
 }
 
 impl LockedAxes {
     /// All rotation locked: the body translates only.
     pub const ROTATION_LOCKED: LockedAxes = LockedAxes {
         rotation: BVec3::TRUE,
+        translation: BVec3::FALSE,
     };
 
-    /// Locks rotation about the world axes marked true.
+    /// All translation locked: the body turns about its centre of mass only.
+    pub const TRANSLATION_LOCKED: LockedAxes = LockedAxes {
+        rotation: BVec3::FALSE,
+        translation: BVec3::TRUE,
+    };
+
+    /// Everything locked: the body does not move at all.
+    pub const ALL_LOCKED: LockedAxes = LockedAxes {
+        rotation: BVec3::TRUE,
+        translation: BVec3::TRUE,
+    };
+
+    /// Nothing locked.
+    pub const fn new() -> Self {
+        LockedAxes {
+            rotation: BVec3::FALSE,
+            translation: BVec3::FALSE,
+        }
+    }
+
+    /// Locks rotation about the world axes marked true (translation unlocked).
     pub fn rotation(x: bool, y: bool, z: bool) -> Self {
         LockedAxes {
             rotation: BVec3::new(x, y, z),
+            translation: BVec3::FALSE,
         }
+    }
+
+    /// Locks translation along the world axes marked true (rotation unlocked).
+    pub fn translation(x: bool, y: bool, z: bool) -> Self {
+        LockedAxes {
+            rotation: BVec3::FALSE,
+            translation: BVec3::new(x, y, z),
+        }
+    }
+
+    /// Also locks translation along world x.
+    pub const fn lock_translation_x(mut self) -> Self {
+        self.translation.x = true;
+        self
+    }
+
+    /// Also locks translation along world y.
+    pub const fn lock_translation_y(mut self) -> Self {
+        self.translation.y = true;
+        self
+    }
+
+    /// Also locks translation along world z.
+    pub const fn lock_translation_z(mut self) -> Self {
+        self.translation.z = true;
+        self
+    }
+
+    /// Also locks rotation about world x.
+    pub const fn lock_rotation_x(mut self) -> Self {
+        self.rotation.x = true;
+        self
+    }
+
+    /// Also locks rotation about world y.
+    pub const fn lock_rotation_y(mut self) -> Self {
+        self.rotation.y = true;
+        self
+    }
+
+    /// Also locks rotation about world z.
+    pub const fn lock_rotation_z(mut self) -> Self {
+        self.rotation.z = true;
+        self
     }
 }
 
@@ -152,3 +245,25 @@ pub struct Quarantined {
     /// Why the body is left out.
     pub reason: String,
 }
+
+/// Takes the body (and its collider) out of the simulation entirely: it is not read, moved or
+/// collided with, and other bodies pass through it; its components keep their values. Remove
+/// the component and the body rejoins the next step as it was (as avian's
+/// `RigidBodyDisabled`). On a collider without a `RigidBody` it removes that static collider.
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+///
+/// fn hide(mut commands: Commands, crates: Query<Entity, With<RigidBody>>) {
+///     for e in &crates {
+///         commands.entity(e).insert(RigidBodyDisabled);
+///     }
+/// }
+/// # bevy::ecs::system::assert_is_system(hide);
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct RigidBodyDisabled;

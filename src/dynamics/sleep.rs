@@ -33,6 +33,12 @@ pub struct Sleeping {
     pub island: Entity,
 }
 
+/// Keeps a body awake: it never falls asleep, and neither does any island it touches (as
+/// avian's `SleepingDisabled`). Inserted on a sleeping body, it wakes the body's island.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct SleepingDisabled;
+
 impl Default for Sleeping {
     fn default() -> Self {
         Sleeping {
@@ -189,6 +195,12 @@ pub struct Sleeper {
     pub reporting: Reporting,
     /// Bounding radius about the centre of mass, m.
     pub radius: f32,
+    /// The forces, damping, speed caps and translation locks it has, if any (see
+    /// [`BodyMotion`](crate::dynamics::forces::BodyMotion)).
+    pub motion: Option<crate::dynamics::forces::BodyMotion>,
+    /// Its collider takes part in contacts (no
+    /// [`ColliderDisabled`](crate::collision::collider::ColliderDisabled)).
+    pub collides: bool,
 }
 
 /// The sleeping bodies that sit out the step: a body enters the step's packed arrays only when
@@ -402,6 +414,8 @@ mod tests {
             body: SolverBody::new(Motion::Dynamic, p, Quat::IDENTITY),
             local_com: Vec3::ZERO,
             shape: SharedShape::new(Ball::new(r)),
+            motion: None,
+            collides: true,
             pose: Pose::from_parts(p, Quat::IDENTITY),
             restitution: 0.0,
             friction: 0.0,

@@ -46,6 +46,13 @@ pub const MAX_INVERSE_INERTIA: f32 = 1e24;
 pub const MAX_LENGTH: f32 = 1e6;
 /// Largest gravity, m/s^2: with the largest step, `|g| dt` stays within [`MAX_LINEAR_SPEED`].
 pub const MAX_GRAVITY: f32 = 1e6;
+/// Largest linear acceleration of a body beyond gravity (forces over mass, accelerations,
+/// gravity scale), m/s^2: with the largest step, `a dt` stays within [`MAX_LINEAR_SPEED`].
+pub const MAX_ACCELERATION: f32 = 1e6;
+/// Largest angular acceleration of a body (torques through the inverse inertia, angular
+/// accelerations), rad/s^2: with the largest step, `alpha dt` stays within
+/// [`MAX_ANGULAR_SPEED`].
+pub const MAX_ANGULAR_ACCELERATION: f32 = 1e6;
 /// Largest step length, s.
 pub const MAX_DT: f32 = 1.0;
 /// The step length used when the time source has never given a valid one: Bevy's default

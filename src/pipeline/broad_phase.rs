@@ -1,16 +1,17 @@
 //! The broad phase: candidate pairs from bounding boxes swept along each body's motion in the
-//! step, and the wake of sleeping bodies an awake body's box reaches.
+//! step, found through the persistent [`BroadPhaseTree`], and the wake of sleeping bodies an
+//! awake body's box reaches.
 
 use bevy::prelude::*;
 
 use crate::collision::ContactPairs;
-use crate::collision::broad_phase::pairs_with_active;
+use crate::collision::broad_phase::{BroadPhaseTree, TREE_MARGIN};
 use crate::dynamics::solver::Motion;
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
 use super::{
-    CandidatePairs, PhysicsState, bring_in_overlapped, init_stage_state, mark_awake_active,
-    wake_islands,
+    CandidatePairs, PairKind, PhysicsState, bring_in_overlapped, init_stage_state,
+    mark_awake_active, wake_islands,
 };
 
 /// Adds [`update_broad_phase`] to [`PhysicsSystems::BroadPhase`].
@@ -25,25 +26,29 @@ impl Plugin for BroadPhasePlugin {
     }
 }
 
-/// Finds candidate pairs by sweep and prune, keeping only pairs where at least one body is
-/// dynamic.
+/// Brings the [`BroadPhaseTree`] up to date with the step's bodies (removing those that left)
+/// and finds the candidate pairs through it: every pair of overlapping boxes with an active
+/// body, kept where at least one body is dynamic or sleeping, and the pairs of two inactive
+/// bodies carried over from the last step.
 pub fn update_broad_phase(
     mut state: ResMut<PhysicsState>,
+    mut tree: ResMut<BroadPhaseTree>,
     mut pairs: ResMut<ContactPairs>,
     mut candidates: ResMut<CandidatePairs>,
 ) {
     let state = &mut *state;
+    let tree = &mut *tree;
+    for &entity in &state.departed {
+        tree.remove(entity);
+    }
+    let margin = TREE_MARGIN * state.settings.length_unit;
     // An awake body (dynamic, or kinematic and moving) overlapping a sleeping one wakes its
     // island now, so that the contact is solved with the sleeper's real mass; repeat until no
     // more islands wake (a woken island may overlap another sleeping one).
     loop {
         bring_in_overlapped(state);
-        pairs_with_active(
-            &state.aabbs,
-            &state.active,
-            &mut state.index_pairs,
-            &mut state.sort_scratch,
-        );
+        tree.sync(&state.entities, &state.aabbs, margin);
+        tree.pairs_with_active(&state.aabbs, &state.active, &mut state.index_pairs);
         let mut islands = Vec::new();
         for &(i, j) in &state.index_pairs {
             for (me, other) in [(i as usize, j as usize), (j as usize, i as usize)] {
@@ -53,7 +58,13 @@ pub fn update_broad_phase(
                         || (o.motion == Motion::Kinematic
                             && (o.linear_velocity != Vec3::ZERO
                                 || o.angular_velocity != Vec3::ZERO));
-                    if active && state.asleep[other].is_none() && !islands.contains(&island) {
+                    // Only a pair that is solved pushes: a body its layers filter out, or a
+                    // sensor, passes a sleeper without waking it.
+                    if active
+                        && state.asleep[other].is_none()
+                        && !islands.contains(&island)
+                        && state.pair_kind(me, other) == Some(PairKind::Solved)
+                    {
                         islands.push(island);
                     }
                 }
@@ -65,6 +76,7 @@ pub fn update_broad_phase(
         // The woken bodies are active now: search their pairs too.
         mark_awake_active(state);
     }
+    tree.optimize();
     // Resting pairs set aside while their sleeping bodies sat out come back among the
     // candidates when one of their bodies is in the step again, when the other body (static)
     // changed, or when it is gone.
@@ -86,7 +98,7 @@ pub fn update_broad_phase(
         }
     }
     // Pairs of two inactive bodies cannot have changed since the last step (neither moved):
-    // carry them over instead of sweeping every sleeping and static body each step. A pair of
+    // carry them over instead of searching every sleeping and static body each step. A pair of
     // which a body sits out the step asleep, the other sitting out too or inactive, is set
     // aside as it is.
     if !pairs.candidates().is_empty()

@@ -7,9 +7,11 @@
 //! its own, readable from outside the crate: the bodies of the step in [`PhysicsState`]
 //! (prepare), the overlapping pairs in [`CandidatePairs`] (broad phase), the contact rows in
 //! [`ContactRows`] (narrow phase, impulses from the solve), the step's events in
-//! [`StepEvents`] (narrow phase and solve). A replacement broad phase reads the bodies' boxes
-//! and ends with [`CandidatePairs::set`] (`tests/replace_stage.rs` swaps in an all-pairs one
-//! and gets bit-identical results). Nothing in `collision`, `dynamics` or `schedule` imports
+//! [`StepEvents`] (narrow phase and solve); the broad phase also keeps the persistent
+//! [`BroadPhaseTree`](crate::collision::BroadPhaseTree) of every body's box for spatial queries. A
+//! replacement broad phase reads the bodies' boxes and ends with [`CandidatePairs::set`]
+//! (`tests/replace_stage.rs` swaps in an all-pairs one and gets bit-identical results); the
+//! tree is then left empty. Nothing in `collision`, `dynamics` or `schedule` imports
 //! this module.
 
 pub mod broad_phase;
@@ -34,19 +36,23 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
+use crate::collision::BroadPhaseTree;
 use crate::collision::layers::CollisionLayers;
 use crate::collision::narrow_phase::{TOUCH_DISTANCE, UnitShapes};
 use crate::collision::sensor::Reporting;
+use crate::dynamics::forces::BodyMotion;
 use crate::dynamics::sleep::{SleepConfig, SleepingSet};
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
 use crate::dynamics::{Gravity, SolverConfig};
 use crate::messages::Impact;
+use crate::schedule::PhysicsTime;
 
 /// Initialises the resources the stages share, so that each stage plugin can run with any of
 /// the others replaced or left out.
 fn init_stage_state(app: &mut App) -> &mut App {
     app.init_resource::<PhysicsState>()
+        .init_resource::<BroadPhaseTree>()
         .init_resource::<CandidatePairs>()
         .init_resource::<ContactRows>()
         .init_resource::<StepEvents>()
@@ -89,9 +95,13 @@ pub struct PhysicsState {
     /// Scratch: (entity, body index), sorted, to find the carried-over pairs' bodies.
     index_of: Vec<(Entity, u32)>,
     index_pairs: Vec<(u32, u32)>,
-    sort_scratch: Vec<u32>,
     /// Bounding radius of each body about its centre of mass, m.
     radius: Vec<f32>,
+    /// Each body's collider takes part in contacts (no `ColliderDisabled`).
+    collides: Vec<bool>,
+    /// The dynamic bodies with forces, damping, speed caps or translation locks: index, what
+    /// they have, and the centre of mass at the start of the step.
+    motion: Vec<(usize, BodyMotion, Vec3)>,
     /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
     /// solver body it becomes if it is woken in this step.
     asleep: Vec<Option<(Entity, SolverBody)>>,
@@ -176,7 +186,8 @@ impl PhysicsState {
     }
 
     /// Whether bodies `i` and `j`, if their boxes overlap, make a candidate pair, and of which
-    /// kind (see [`CandidatePairs::set`], which keeps the pairs this accepts). Their layers must
+    /// kind (see [`CandidatePairs::set`], which keeps the pairs this accepts). Neither may have a
+    /// disabled collider, and their layers must
     /// interact. A pair with a dynamic or sleeping body is [`PairKind::Solved`] unless a sensor
     /// is in it. A pair of two non-dynamic bodies is [`PairKind::DetectOnly`] when one of them
     /// asks for reports (sensor, events or colliding entities) and one of them is kinematic or a
@@ -184,7 +195,8 @@ impl PhysicsState {
     ///
     /// A broad phase that wakes sleeping bodies can ask this first: only a solved pair pushes.
     pub fn pair_kind(&self, i: usize, j: usize) -> Option<PairKind> {
-        if !self.layers[i].interacts_with(self.layers[j]) {
+        if !self.collides[i] || !self.collides[j] || !self.layers[i].interacts_with(self.layers[j])
+        {
             return None;
         }
         let (ri, rj) = (self.reporting[i], self.reporting[j]);
@@ -257,7 +269,8 @@ impl CandidatePairs {
     /// any order and either way round), and sorts them by entity. What a broad phase, the
     /// built-in one or a replacement, ends with; the one place pairs are filtered:
     ///
-    /// - the bodies' [`CollisionLayers`] must interact
+    /// - neither body has a [`ColliderDisabled`](crate::collision::ColliderDisabled), and the
+    ///   bodies' [`CollisionLayers`] must interact
     ///   ([`CollisionLayers::interacts_with`]);
     /// - a pair with a dynamic or sleeping body is kept, solved unless a
     ///   [`Sensor`](crate::collision::Sensor) is in it;
@@ -383,6 +396,8 @@ struct Settings {
     length_unit: f32,
     /// [`TOUCH_DISTANCE`] in the length unit, m.
     touch_distance: f32,
+    /// [`PhysicsTime::relative_speed`](crate::schedule::PhysicsTime::relative_speed).
+    relative_speed: f32,
 }
 
 impl Default for Settings {
@@ -394,11 +409,13 @@ impl Default for Settings {
             dt: DEFAULT_DT,
             length_unit: 1.0,
             touch_distance: TOUCH_DISTANCE,
+            relative_speed: 1.0,
         }
     }
 }
 
-/// Validates the settings resources and the step length against the last good values (see
+/// Validates the settings resources and the step length (the schedule's delta times the
+/// physics clock's relative speed) against the last good values (see
 /// [`SolverConfig::validated`]), logging each invalid value once, as an error naming the
 /// field and the value, for as long as it stays.
 fn validate_settings(
@@ -407,10 +424,15 @@ fn validate_settings(
     gravity: &Gravity,
     sleep: &SleepConfig,
     unit: &PhysicsLengthUnit,
-    dt: f32,
+    clock: &PhysicsTime,
+    delta: f32,
 ) {
     let last = &state.last_good;
+    let (relative_speed, speed_error) = clock.validated_speed(last.relative_speed);
+    // Speed 1 leaves the delta as it is, bit for bit (`x * 1.0 == x` in IEEE arithmetic).
+    let dt = delta * relative_speed;
     let (config, mut errors) = config.validated(&last.config);
+    errors.extend(speed_error);
     let (gravity, e) = gravity.validated(last.gravity);
     errors.extend(e);
     let (sleep, e) = sleep.validated(&last.sleep);
@@ -432,6 +454,7 @@ fn validate_settings(
         dt,
         length_unit: unit,
         touch_distance: TOUCH_DISTANCE,
+        relative_speed,
     };
     state.settings = state.last_good.scaled();
 }
@@ -521,12 +544,17 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
     state.aabbs.push(state.sleepers.aabb(i));
     state.active.push(false);
     state.radius.push(s.radius);
+    state.collides.push(s.collides);
+    if let Some(motion) = s.motion {
+        let index = state.bodies.len() - 1;
+        state.motion.push((index, motion, s.body.position));
+    }
     state.asleep.push(Some((s.island, s.body)));
     state.entered.push(s.entity);
 }
 
-/// Brings in every sleeping body whose box an active body's box overlaps, so that the sweep
-/// finds their pairs as if every sleeping body were in the arrays.
+/// Brings in every sleeping body whose box an active body's box overlaps, so that the pair
+/// search finds their pairs as if every sleeping body were in the arrays.
 fn bring_in_overlapped(state: &mut PhysicsState) {
     if state.sleepers.is_empty() {
         return;

@@ -2,6 +2,7 @@
 //! an error that names the entity), keeps mass properties up to date, and packs the solver
 //! bodies; sleeping bodies sit the step out until something may touch them.
 
+use bevy::ecs::change_detection::Tick;
 use bevy::ecs::query::QueryData;
 use bevy::ecs::system::{SystemChangeTick, SystemParam};
 use bevy::prelude::*;
@@ -10,19 +11,24 @@ use parry3d::math::Pose;
 
 use crate::collision::sensor::Reporting;
 use crate::collision::{
-    Collider, CollidingEntities, CollisionEventsEnabled, CollisionLayers, Sensor,
+    Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers, Sensor,
 };
-use crate::dynamics::sleep::{SleepConfig, Sleeper, Sleeping};
+use crate::dynamics::forces::{
+    AccumulatedForces, AngularDamping, BodyMotion, ConstantAngularAcceleration, ConstantForce,
+    ConstantLinearAcceleration, ConstantLocalForce, ConstantLocalTorque, ConstantTorque,
+    GravityScale, LinearDamping, MaxAngularSpeed, MaxLinearSpeed,
+};
+use crate::dynamics::sleep::{SleepConfig, Sleeper, Sleeping, SleepingDisabled};
 use crate::dynamics::solver::{Motion, SolverBody};
 use crate::dynamics::validation::{
-    MAX_ANGULAR_SPEED, MAX_COORDINATE, MAX_LINEAR_SPEED, PhysicsLengthUnit, body_label,
-    check_length, within,
+    MAX_ACCELERATION, MAX_ANGULAR_ACCELERATION, MAX_ANGULAR_SPEED, MAX_COORDINATE,
+    MAX_LINEAR_SPEED, PhysicsLengthUnit, body_label, check_length, within,
 };
 use crate::dynamics::{
     AngularVelocity, ComputedMass, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass,
-    Quarantined, Restitution, RigidBody, SolverConfig,
+    Quarantined, Restitution, RigidBody, RigidBodyDisabled, SolverConfig,
 };
-use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+use crate::schedule::{PhysicsSchedule, PhysicsSystems, PhysicsTime};
 
 use super::{PhysicsState, init_stage_state, mark_awake_active, validate_settings, wake_islands};
 
@@ -61,12 +67,50 @@ pub struct BodyData {
     sensor: Option<Ref<'static, Sensor>>,
     events: Has<CollisionEventsEnabled>,
     colliding: Has<CollidingEntities>,
+    motion: MotionData,
+}
+
+/// The components of a body beyond gravity and contacts: forces, accelerations, damping, speed
+/// caps, and the markers that keep it awake or its collider out of contacts.
+#[derive(QueryData)]
+#[query_data(mutable)]
+pub struct MotionData {
+    constant_force: Option<Ref<'static, ConstantForce>>,
+    constant_torque: Option<Ref<'static, ConstantTorque>>,
+    constant_local_force: Option<Ref<'static, ConstantLocalForce>>,
+    constant_local_torque: Option<Ref<'static, ConstantLocalTorque>>,
+    linear_acceleration: Option<Ref<'static, ConstantLinearAcceleration>>,
+    angular_acceleration: Option<Ref<'static, ConstantAngularAcceleration>>,
+    accumulated: Option<&'static mut AccumulatedForces>,
+    gravity_scale: Option<Ref<'static, GravityScale>>,
+    linear_damping: Option<&'static LinearDamping>,
+    angular_damping: Option<&'static AngularDamping>,
+    max_linear_speed: Option<&'static MaxLinearSpeed>,
+    max_angular_speed: Option<&'static MaxAngularSpeed>,
+    sleeping_disabled: Has<SleepingDisabled>,
+    collider_disabled: Has<ColliderDisabled>,
 }
 
 /// Change filter of a sleeping body: any of the components the prepare stage reads changed
 /// since its last run (or the marker was just added). A sleeping body that matches none sits
 /// out the step (see [`SleepingSet`]).
 type Disturbed = Or<(
+    Or<(
+        Changed<ConstantForce>,
+        Changed<ConstantTorque>,
+        Changed<ConstantLocalForce>,
+        Changed<ConstantLocalTorque>,
+        Changed<ConstantLinearAcceleration>,
+        Changed<ConstantAngularAcceleration>,
+        Changed<AccumulatedForces>,
+        Changed<GravityScale>,
+        Changed<LinearDamping>,
+        Changed<AngularDamping>,
+        Changed<MaxLinearSpeed>,
+        Changed<MaxAngularSpeed>,
+        Changed<SleepingDisabled>,
+        Changed<ColliderDisabled>,
+    )>,
     Changed<Sleeping>,
     Changed<Transform>,
     Changed<Collider>,
@@ -91,6 +135,7 @@ pub struct StepSettings<'w> {
     gravity: Res<'w, Gravity>,
     sleep: Res<'w, SleepConfig>,
     unit: Res<'w, PhysicsLengthUnit>,
+    clock: Res<'w, PhysicsTime>,
 }
 
 /// The sleeping bodies: the entities of those disturbed since the last step, and every
@@ -99,13 +144,24 @@ type SleepingBodies<'w, 's> = ParamSet<
     'w,
     's,
     (
-        Query<'static, 'static, Entity, (With<Sleeping>, With<Collider>, Disturbed)>,
-        Query<'static, 'static, BodyData, With<Sleeping>>,
+        Query<
+            'static,
+            'static,
+            Entity,
+            (
+                With<Sleeping>,
+                With<Collider>,
+                Without<RigidBodyDisabled>,
+                Disturbed,
+            ),
+        >,
+        Query<'static, 'static, BodyData, (With<Sleeping>, Without<RigidBodyDisabled>)>,
     ),
 >;
 
 /// The removals of components a body's gathered state depends on. A sleeping body that lost
-/// one is read again; one that lost its collider (or was despawned) ends its resting pairs.
+/// one is read again; one that lost its collider (or was despawned) ends its resting pairs, as
+/// does one that was just disabled.
 #[derive(SystemParam)]
 pub struct BodyRemovals<'w, 's> {
     sleeping: RemovedComponents<'w, 's, Sleeping>,
@@ -122,6 +178,48 @@ pub struct BodyRemovals<'w, 's> {
     locked: RemovedComponents<'w, 's, LockedAxes>,
     layers: RemovedComponents<'w, 's, CollisionLayers>,
     sensor: RemovedComponents<'w, 's, Sensor>,
+    motion: MotionRemovals<'w, 's>,
+    /// The bodies disabled since the last step: they leave it as a despawned body does.
+    disabled: Query<'w, 's, Entity, Added<RigidBodyDisabled>>,
+}
+
+/// The removals of the components of [`MotionData`], and of [`RigidBodyDisabled`]: a sleeping
+/// body that lost one is read again.
+#[derive(SystemParam)]
+pub struct MotionRemovals<'w, 's> {
+    force: RemovedComponents<'w, 's, ConstantForce>,
+    torque: RemovedComponents<'w, 's, ConstantTorque>,
+    local_force: RemovedComponents<'w, 's, ConstantLocalForce>,
+    local_torque: RemovedComponents<'w, 's, ConstantLocalTorque>,
+    linear_acceleration: RemovedComponents<'w, 's, ConstantLinearAcceleration>,
+    angular_acceleration: RemovedComponents<'w, 's, ConstantAngularAcceleration>,
+    gravity_scale: RemovedComponents<'w, 's, GravityScale>,
+    linear_damping: RemovedComponents<'w, 's, LinearDamping>,
+    angular_damping: RemovedComponents<'w, 's, AngularDamping>,
+    max_linear_speed: RemovedComponents<'w, 's, MaxLinearSpeed>,
+    max_angular_speed: RemovedComponents<'w, 's, MaxAngularSpeed>,
+    collider_disabled: RemovedComponents<'w, 's, ColliderDisabled>,
+    disabled: RemovedComponents<'w, 's, RigidBodyDisabled>,
+}
+
+impl MotionRemovals<'_, '_> {
+    /// Every entity that lost one of the components since the last step.
+    fn read(&mut self) -> Vec<Entity> {
+        let mut out: Vec<Entity> = self.force.read().collect();
+        out.extend(self.torque.read());
+        out.extend(self.local_force.read());
+        out.extend(self.local_torque.read());
+        out.extend(self.linear_acceleration.read());
+        out.extend(self.angular_acceleration.read());
+        out.extend(self.gravity_scale.read());
+        out.extend(self.linear_damping.read());
+        out.extend(self.angular_damping.read());
+        out.extend(self.max_linear_speed.read());
+        out.extend(self.max_angular_speed.read());
+        out.extend(self.collider_disabled.read());
+        out.extend(self.disabled.read());
+        out
+    }
 }
 
 /// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
@@ -137,7 +235,7 @@ pub fn prepare_bodies(
     ticks: SystemChangeTick,
     settings: StepSettings,
     mut state: ResMut<PhysicsState>,
-    mut awake: Query<BodyData, Without<Sleeping>>,
+    mut awake: Query<BodyData, (Without<Sleeping>, Without<RigidBodyDisabled>)>,
     mut sleeping: SleepingBodies,
     mut removals: BodyRemovals,
 ) {
@@ -148,6 +246,7 @@ pub fn prepare_bodies(
         &settings.gravity,
         &settings.sleep,
         &settings.unit,
+        &settings.clock,
         settings.time.delta_secs(),
     );
     let sleep_enabled = state.settings.sleep.enabled;
@@ -164,6 +263,8 @@ pub fn prepare_bodies(
             state.departed.push(item.entity);
         }
     }
+    // A disabled body leaves the step as a despawned one does: its pairs end.
+    state.departed.extend(removals.disabled.iter());
     let read = sleepers_to_read(state, &mut sleeping, &mut removals);
     let mut query = sleeping.p1();
     for entity in read {
@@ -200,6 +301,8 @@ fn begin_step(state: &mut PhysicsState) {
     state.aabbs.clear();
     state.active.clear();
     state.radius.clear();
+    state.collides.clear();
+    state.motion.clear();
     state.asleep.clear();
     state.woken.clear();
     state.entered.clear();
@@ -239,6 +342,15 @@ fn sleepers_to_read(
             state.sleepers.remove(entity);
             read.push(entity);
         }
+    }
+    // A sleeping body no longer disabled is not in the set: it is read again like those that
+    // lost a component of `MotionData` (an awake one is read anyway, and the sleeping query
+    // skips it).
+    for entity in removals.motion.read() {
+        if state.sleepers.get(entity).is_some() {
+            state.sleepers.remove(entity);
+        }
+        read.push(entity);
     }
     let departed = state.departed.clone();
     for &entity in &departed {
@@ -284,6 +396,12 @@ fn gather_sleeper(
                     layers: state.layers[i],
                     reporting: state.reporting[i],
                     radius: state.radius[i],
+                    motion: state
+                        .motion
+                        .last()
+                        .filter(|&&(k, _, _)| k == i)
+                        .map(|&(_, m, _)| m),
+                    collides: state.collides[i],
                 },
                 state.step,
             );
@@ -328,9 +446,22 @@ fn gather_body(
     let gravity_speed = state.settings.gravity.0.length() * dt;
     let entity = item.entity;
     let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
-    let check = validate(item, kind);
+    let gravity = state.settings.gravity.0;
+    let check = validate(item, kind).and_then(|()| match kind {
+        RigidBody::Dynamic => body_motion(item, gravity),
+        _ => Ok(None),
+    });
+    // Whether a sleeping body was pushed, before the one-off forces are spent.
+    let pushed = item
+        .sleeping
+        .as_ref()
+        .is_some_and(|marker| pushed_since(&item.motion, marker.added(), ticks.this_run()));
+    // This step has read the one-off forces: they are spent, whatever became of the body.
+    if let Some(accumulated) = item.motion.accumulated.as_mut() {
+        accumulated.set_if_neq(AccumulatedForces::default());
+    }
     let label = || body_label(entity, item.name);
-    match (check, item.quarantined) {
+    let extra = match (check, item.quarantined) {
         (Err(reason), quarantined) => {
             if quarantined.is_none_or(|q| q.reason != reason) {
                 log::error!(
@@ -341,15 +472,16 @@ fn gather_body(
             }
             return Gathered::Quarantined;
         }
-        (Ok(()), Some(_)) => {
+        (Ok(extra), Some(_)) => {
             log::info!(
                 "impact3d: {} is valid again and rejoins the physics step",
                 label()
             );
             commands.entity(entity).remove::<Quarantined>();
+            extra
         }
-        (Ok(()), None) => {}
-    }
+        (Ok(extra), None) => extra,
+    };
     warn_on_coefficient_change(&label, item.restitution.as_ref(), "restitution", 1.0);
     warn_on_coefficient_change(&label, item.friction.as_ref(), "friction", f32::INFINITY);
     let rotation = item.transform.rotation.normalize();
@@ -367,7 +499,7 @@ fn gather_body(
     };
     let linear = item.linear_velocity.as_deref().map_or(Vec3::ZERO, |v| v.0);
     let angular = item.angular_velocity.as_deref().map_or(Vec3::ZERO, |w| w.0);
-    let body = SolverBody::new(motion, translation + rotation * local_com, rotation)
+    let mut body = SolverBody::new(motion, translation + rotation * local_com, rotation)
         .with_mass(
             computed.inverse_mass,
             computed.local_inverse_inertia,
@@ -375,6 +507,10 @@ fn gather_body(
             item.locked.map_or(BVec3::FALSE, |l| l.rotation),
         )
         .with_velocity(linear, angular);
+    // Forces, accelerations and damping act before the solve (see `crate::dynamics::forces`).
+    if let Some(extra) = &extra {
+        extra.start_step(&mut body, dt);
+    }
 
     let shape = item.collider.shape().clone();
     let pose = Pose::from_parts(translation, rotation);
@@ -400,7 +536,8 @@ fn gather_body(
                 || item
                     .angular_velocity
                     .as_ref()
-                    .is_some_and(|w| w.last_changed().is_newer_than(since, now));
+                    .is_some_and(|w| w.last_changed().is_newer_than(since, now))
+                || pushed;
             let island = if marker.island == Entity::PLACEHOLDER {
                 entity
             } else {
@@ -428,8 +565,20 @@ fn gather_body(
     } else {
         0.0
     };
+    // The extra acceleration the solver integrates with gravity (see `BodyMotion::start_step`).
+    let accelerated = if body.motion == Motion::Dynamic {
+        body.extra_acceleration
+    } else {
+        Vec3::ZERO
+    };
+    let speed_gained = if accelerated == Vec3::ZERO {
+        gained
+    } else {
+        (gravity + accelerated).length() * dt
+    };
     let reach = if moving {
-        (body.linear_velocity.length() + gained + body.angular_velocity.length() * radius) * dt
+        (body.linear_velocity.length() + speed_gained + body.angular_velocity.length() * radius)
+            * dt
     } else {
         0.0
     };
@@ -438,8 +587,12 @@ fn gather_body(
     // every direction, it does not pull in bodies beside a fast body's path.
     let aabb = shape.compute_aabb(&pose);
     let aabb = if moving {
-        let travel = body.linear_velocity * dt
+        let mut travel = body.linear_velocity * dt
             + 0.5 * gained * dt * state.settings.gravity.0.normalize_or_zero();
+        // A free body flies on the parabola of `g + a`.
+        if accelerated != Vec3::ZERO {
+            travel += 0.5 * accelerated * dt * dt;
+        }
         let end = parry3d::bounding_volume::Aabb::new(aabb.mins + travel, aabb.maxs + travel);
         aabb.merged(&end)
             .loosened(0.5 * margin + body.angular_velocity.length() * radius * dt)
@@ -500,6 +653,11 @@ fn gather_body(
                 && state.layers_removed.binary_search(&entity).is_ok()),
     );
     state.radius.push(radius);
+    state.collides.push(!item.motion.collider_disabled);
+    if let Some(extra) = extra {
+        let i = state.bodies.len() - 1;
+        state.motion.push((i, extra, body.position));
+    }
     state.asleep.push(asleep);
     if state.asleep.last().is_some_and(Option::is_some) {
         Gathered::Asleep
@@ -579,6 +737,129 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Whether something pushed a sleeping body since it fell asleep (tick `since`): a one-off
+/// force waits in its [`AccumulatedForces`], a constant force or gravity scale was set, or it
+/// may no longer sleep ([`SleepingDisabled`]). Its island wakes.
+fn pushed_since(m: &MotionDataItem, since: Tick, now: Tick) -> bool {
+    let newer = |tick: Tick| tick.is_newer_than(since, now);
+    m.sleeping_disabled
+        || m.accumulated
+            .as_ref()
+            .is_some_and(|a| **a != AccumulatedForces::default())
+        || m.constant_force
+            .as_ref()
+            .is_some_and(|c| newer(c.last_changed()))
+        || m.constant_torque
+            .as_ref()
+            .is_some_and(|c| newer(c.last_changed()))
+        || m.constant_local_force
+            .as_ref()
+            .is_some_and(|c| newer(c.last_changed()))
+        || m.constant_local_torque
+            .as_ref()
+            .is_some_and(|c| newer(c.last_changed()))
+        || m.linear_acceleration
+            .as_ref()
+            .is_some_and(|c| newer(c.last_changed()))
+        || m.angular_acceleration
+            .as_ref()
+            .is_some_and(|c| newer(c.last_changed()))
+        || m.gravity_scale
+            .as_ref()
+            .is_some_and(|c| newer(c.last_changed()))
+}
+
+/// Checks a dynamic body's forces, accelerations, gravity scale, damping and speed caps, and
+/// gathers them (world frame) for the step: `None` when it has none of them, so the step
+/// leaves it exactly as before. Errors name the component and the value.
+fn body_motion(item: &BodyDataItem, gravity: Vec3) -> Result<Option<BodyMotion>, String> {
+    let m = &item.motion;
+    let finite = |what: &str, v: Vec3| {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(format!("{what} {v} is not finite"))
+        }
+    };
+    let rotation = item.transform.rotation.normalize();
+    let locked = item.locked.copied().unwrap_or_default();
+    let mut force = Vec3::ZERO;
+    let mut torque = Vec3::ZERO;
+    let mut linear = Vec3::ZERO;
+    let mut angular = Vec3::ZERO;
+    if let Some(f) = &m.constant_force {
+        force += finite("ConstantForce", f.0)?;
+    }
+    if let Some(f) = &m.constant_local_force {
+        force += rotation * finite("ConstantLocalForce", f.0)?;
+    }
+    if let Some(t) = &m.constant_torque {
+        torque += finite("ConstantTorque", t.0)?;
+    }
+    if let Some(t) = &m.constant_local_torque {
+        torque += rotation * finite("ConstantLocalTorque", t.0)?;
+    }
+    if let Some(a) = &m.linear_acceleration {
+        linear += finite("ConstantLinearAcceleration", a.0)?;
+    }
+    if let Some(a) = &m.angular_acceleration {
+        angular += finite("ConstantAngularAcceleration", a.0)?;
+    }
+    if let Some(a) = &m.accumulated {
+        force += finite("the force applied through Forces", a.force)?;
+        torque += finite("the torque applied through Forces", a.torque)?;
+        linear += finite(
+            "the linear acceleration applied through Forces",
+            a.linear_acceleration,
+        )?;
+        angular += finite(
+            "the angular acceleration applied through Forces",
+            a.angular_acceleration,
+        )?;
+    }
+    if let Some(scale) = &m.gravity_scale {
+        if !scale.0.is_finite() {
+            return Err(format!("GravityScale {:?} is not finite", scale.0));
+        }
+        if scale.0 != 1.0 {
+            linear += (scale.0 - 1.0) * gravity;
+        }
+    }
+    let computed = item
+        .computed
+        .as_deref()
+        .ok_or("dynamic body has no ComputedMass component")?;
+    if force != Vec3::ZERO {
+        linear += computed.inverse_mass * force;
+    }
+    if torque != Vec3::ZERO {
+        angular += computed.world_inverse_inertia(rotation, locked.rotation) * torque;
+    }
+    angular = Vec3::select(locked.rotation, Vec3::ZERO, angular);
+    check_length("linear acceleration", linear, MAX_ACCELERATION)?;
+    check_length("angular acceleration", angular, MAX_ANGULAR_ACCELERATION)?;
+    let damping = |what: &str, c: Option<f32>| match c {
+        Some(c) if !(c.is_finite() && c >= 0.0) => {
+            Err(format!("{what} {c:?} must be finite and >= 0"))
+        }
+        c => Ok(c.unwrap_or(0.0)),
+    };
+    let cap = |what: &str, c: Option<f32>| match c {
+        Some(c) if c.is_nan() || c < 0.0 => Err(format!("{what} {c:?} must be >= 0")),
+        c => Ok(c.unwrap_or(f32::INFINITY)),
+    };
+    let motion = BodyMotion {
+        linear_acceleration: linear,
+        angular_acceleration: angular,
+        linear_damping: damping("LinearDamping", m.linear_damping.map(|c| c.0))?,
+        angular_damping: damping("AngularDamping", m.angular_damping.map(|c| c.0))?,
+        max_linear_speed: cap("MaxLinearSpeed", m.max_linear_speed.map(|c| c.0))?,
+        max_angular_speed: cap("MaxAngularSpeed", m.max_angular_speed.map(|c| c.0))?,
+        locked_translation: locked.translation,
+    };
+    Ok((!motion.is_none()).then_some(motion))
 }
 
 /// Warns, naming the entity, when a coefficient is set outside `[0, max]` or to NaN.

@@ -3,7 +3,9 @@
 use bevy::prelude::*;
 
 use crate::collision::ContactPairs;
-use crate::dynamics::sleep::{SleepTimer, Sleeping, island_links, islands_to_sleep};
+use crate::dynamics::sleep::{
+    SleepTimer, Sleeping, SleepingDisabled, island_links, islands_to_sleep,
+};
 use crate::dynamics::solver::Motion;
 use crate::dynamics::{AngularVelocity, LinearVelocity};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
@@ -20,6 +22,14 @@ impl Plugin for SleepPlugin {
     }
 }
 
+/// What [`update_sleep`] reads and writes of each body.
+type SleepData = (
+    Option<&'static mut SleepTimer>,
+    Option<&'static mut LinearVelocity>,
+    Option<&'static mut AngularVelocity>,
+    Has<SleepingDisabled>,
+);
+
 /// Puts resting islands to sleep and wakes the islands woken in this step (see
 /// [`crate::dynamics::sleep`]): updates each awake dynamic body's [`SleepTimer`], groups
 /// touching bodies into islands, and marks every body of an island whose bodies have all been
@@ -29,11 +39,7 @@ pub fn update_sleep(
     state: Res<PhysicsState>,
     pairs: Res<ContactPairs>,
     candidates: Res<CandidatePairs>,
-    mut bodies: Query<(
-        Option<&mut SleepTimer>,
-        Option<&mut LinearVelocity>,
-        Option<&mut AngularVelocity>,
-    )>,
+    mut bodies: Query<SleepData>,
     sleepers: Query<(Entity, &Sleeping)>,
 ) {
     let config = &state.settings.sleep;
@@ -80,9 +86,14 @@ pub fn update_sleep(
         if body.motion != Motion::Dynamic {
             continue;
         }
-        let Ok((Some(mut timer), _, _)) = bodies.get_mut(state.entities[i]) else {
+        let Ok((Some(mut timer), _, _, awake)) = bodies.get_mut(state.entities[i]) else {
             continue;
         };
+        if awake {
+            // `SleepingDisabled`: no slow time, so neither it nor its island sleeps.
+            timer.set_if_neq(SleepTimer(0.0));
+            continue;
+        }
         let speed =
             body.linear_velocity.length() + body.angular_velocity.length() * state.radius[i];
         timer.0 = if speed < config.linear_threshold {
@@ -109,7 +120,7 @@ pub fn update_sleep(
     {
         let Some(root) = island else { continue };
         let entity = state.entities[i];
-        if let Ok((_, linear, angular)) = bodies.get_mut(entity) {
+        if let Ok((_, linear, angular, _)) = bodies.get_mut(entity) {
             if let Some(mut v) = linear {
                 v.0 = Vec3::ZERO;
             }

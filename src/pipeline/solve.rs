@@ -150,7 +150,13 @@ fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs) {
         // speed is scaled down), so the correction never adds energy. Without this, bodies
         // rewound after falling fast gained up to 22% of a world's energy in a step (the
         // energy property test).
-        let gained = -gravity.dot(position - body.position) / body.inverse_mass;
+        // (Under its own acceleration, gravity with its extra acceleration, if it has one.)
+        let g = if body.extra_acceleration == Vec3::ZERO {
+            gravity
+        } else {
+            gravity + body.extra_acceleration
+        };
+        let gained = -g.dot(position - body.position) / body.inverse_mass;
         let kinetic = 0.5 * body.linear_velocity.length_squared() / body.inverse_mass;
         if gained > 0.0 && kinetic > 0.0 {
             body.linear_velocity *= ((kinetic - gained).max(0.0) / kinetic).sqrt();
@@ -190,6 +196,14 @@ pub fn solve_contacts(
         state.settings.gravity.0,
         state.dt,
     );
+    // Translation locks and speed caps, for the bodies that have them (see
+    // `crate::dynamics::forces`).
+    for &(i, extra, start) in &state.motion {
+        let body = &mut state.bodies[i];
+        if body.motion == Motion::Dynamic {
+            extra.end_step(body, start);
+        }
+    }
     // The hybrid method resolves impacts one at a time at their time of impact, on contacts
     // generated at the time-of-impact poses, so its bodies already stop where they first touch
     // (a box spinning at 1e3 rad/s stops at a thin wall without the rewind): only the other

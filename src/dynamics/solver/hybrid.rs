@@ -36,7 +36,7 @@ pub(super) fn solve(
             config,
             config.restitution_threshold,
             gravity,
-            Vec3::ZERO,
+            false,
             true,
             dt,
         ),
@@ -653,7 +653,8 @@ fn lever(rows: &[ContactConstraint], upper: usize, center: Vec3) -> (f32, f32) {
 ///
 /// A row of the resting phase pushes only while `v_n + bias < 0`, and its bias is at least
 /// `-max_push_out_speed` (a speculative row's `s/h` is positive). Between substeps only gravity
-/// changes `v_n`, by at least `min(g_n, 0) dt` over the step. So a contact with no accumulated
+/// (with the bodies' extra accelerations, [`SolverBody::acceleration`]) changes `v_n`, by at
+/// least `min(g_n, 0) dt` over the step. So a contact with no accumulated
 /// impulse to warm-start and `v_n + min(g_n, 0) dt >= max_push_out_speed` stays inactive, and
 /// if every contact does, no impulse is applied at all.
 fn resting_phase_idle(
@@ -667,13 +668,9 @@ fn resting_phase_idle(
         if c.normal_mass == 0.0 {
             return true;
         }
-        let g = |i: usize| {
-            if bodies[i].motion == Motion::Dynamic {
-                gravity
-            } else {
-                Vec3::ZERO
-            }
-        };
+        // Each body's gravity with its extra acceleration, which can pull a contact apart
+        // (a body with `GravityScale(0.0)` on the floor) or press it together harder.
+        let g = |i: usize| bodies[i].acceleration(gravity);
         let gn = (g(c.body_b) - g(c.body_a)).dot(c.normal);
         c.normal_impulse == 0.0
             && c.normal_velocity(bodies) + gn.min(0.0) * dt >= config.max_push_out_speed
@@ -696,7 +693,8 @@ pub struct ManifoldSolve {
     /// A manifold's iterations stop once no row changes by more than this, m/s.
     pub tolerance: f32,
     /// `omega^2 / |g|`, 1/m: the soft contact's angular frequency squared over gravity's
-    /// magnitude (infinite without gravity). A load-carrying manifold with friction gets soft
+    /// magnitude (infinite without gravity; the world's gravity, not counting the bodies' extra
+    /// accelerations). A load-carrying manifold with friction gets soft
     /// rows only where this times its points' second moment is at least [`TILT_MARGIN`] times
     /// its lever (see [`manifold_sweep`]).
     pub tilt_stiffness: f32,
@@ -1180,6 +1178,39 @@ mod tests {
             true,
             BVec3::FALSE,
         )
+    }
+
+    /// `resting_phase_idle` counts each body's extra acceleration with gravity: a ball leaving
+    /// a static floor at `v_n` with `max_push_out_speed` 3 m/s stays out of reach of any push
+    /// over a 1/60 s step iff `v_n + min(g_n, 0) dt >= 3`. At 3.2 m/s under `g` alone
+    /// (3.2 - 0.16 = 3.04) it is idle; with an extra `-4 g` (3.2 - 0.82 = 2.38) it is not. At
+    /// 3.05 m/s it is not under `g` (2.89), and is under an extra `+2 g`, which pulls it away
+    /// from the floor (`g_n > 0`: its `v_n` only grows).
+    #[test]
+    fn idle_check_counts_extra_accelerations() {
+        let g = Vec3::new(0.0, -9.81, 0.0);
+        let config = SolverConfig::default();
+        let idle = |vn: f32, extra: Vec3| {
+            let mut ball = cube(Motion::Dynamic, 1.0).with_velocity(Vec3::Y * vn, Vec3::ZERO);
+            ball.position = Vec3::Y * 0.5;
+            ball.extra_acceleration = extra;
+            let bodies = [cube(Motion::Static, 1.0), ball];
+            let mut contacts = [ContactConstraint::new(
+                0,
+                1,
+                Vec3::ZERO,
+                Vec3::Y,
+                0.0,
+                0.0,
+                0.0,
+            )];
+            prepare_contacts(&bodies, &mut contacts);
+            resting_phase_idle(&bodies, &contacts, &config, g, 1.0 / 60.0)
+        };
+        assert!(idle(3.2, Vec3::ZERO));
+        assert!(!idle(3.2, 4.0 * g));
+        assert!(!idle(3.05, Vec3::ZERO));
+        assert!(idle(3.05, -2.0 * g));
     }
 
     /// Levels worked out by hand: a static floor (0) and a kinematic platform (5) are level 0;

@@ -4,7 +4,8 @@
 //! stages, in order:
 //!
 //! 1. [`prepare_contacts`]: anchors, effective masses, approach velocities.
-//! 2. The method's velocity solve, interleaved with [`integrate_velocities`] (gravity) and
+//! 2. The method's velocity solve, interleaved with [`integrate_velocities`] (gravity, with
+//!    each body's [`extra_acceleration`](SolverBody::extra_acceleration)) and
 //!    [`integrate_positions`]: see [`SolverMethod`] for each method's order of stages.
 //! 3. The accumulated impulses stay in the contacts, for warm starting the next step.
 //!
@@ -103,14 +104,7 @@ pub fn step(
                 bodies,
                 contacts,
                 &singles,
-                &propagation_params(
-                    config,
-                    config.velocity_tolerance,
-                    Vec3::ZERO,
-                    gravity,
-                    false,
-                    dt,
-                ),
+                &propagation_params(config, config.velocity_tolerance, gravity, true, false, dt),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -128,17 +122,23 @@ pub fn step(
 }
 
 /// The impact phase's parameters from the settings: contacts approaching faster than
-/// `threshold` (m/s) are impacts; `gravity` is integrated after the pass (the hybrid method),
-/// `integrated_gravity` before it (the propagation method); `join_touching`: an inelastic event
-/// takes in the touching inelastic contacts of its bodies (the hybrid method).
+/// `threshold` (m/s) are impacts; `gravity` (m/s^2) and the bodies' extra accelerations are
+/// integrated after the pass (the hybrid method) or, `integrated`, before it (the propagation
+/// method); `join_touching`: an inelastic event takes in the touching inelastic contacts of
+/// its bodies (the hybrid method).
 fn propagation_params(
     config: &SolverConfig,
     threshold: f32,
     gravity: Vec3,
-    integrated_gravity: Vec3,
+    integrated: bool,
     join_touching: bool,
     dt: f32,
 ) -> Propagation {
+    let (after, before) = if integrated {
+        (Vec3::ZERO, gravity)
+    } else {
+        (gravity, Vec3::ZERO)
+    };
     Propagation {
         join_touching,
         touch: config.linear_slop,
@@ -146,8 +146,9 @@ fn propagation_params(
         chain_threshold: config.velocity_tolerance,
         max_sweeps: config.max_propagation_sweeps,
         dt,
-        gravity,
-        integrated_gravity,
+        gravity: after,
+        integrated_gravity: before,
+        accelerations_integrated: integrated,
         substeps: config.substeps.max(1),
         max_block_iterations: config.max_block_iterations,
         velocity_tolerance: config.velocity_tolerance,

@@ -51,6 +51,10 @@ pub struct Propagation {
     /// method integrates it before the pass); zero otherwise. The part of an approach it made
     /// is not bounced: see `resolve_event`.
     pub integrated_gravity: Vec3,
+    /// The bodies' [`extra_acceleration`](SolverBody::extra_acceleration)s are already in the
+    /// velocities, with `integrated_gravity` (the propagation method); otherwise they are
+    /// integrated after the pass, with `gravity` (the hybrid method).
+    pub accelerations_integrated: bool,
     /// Substeps the later integration uses (1 when there is none): semi-implicit Euler over
     /// `n` substeps moves a body `g dt^2 (1 + 1/n) / 2` under gravity, a little more than the
     /// exact `g dt^2 / 2`, and the closing test uses that larger figure.
@@ -460,7 +464,7 @@ fn approaching(
         return false;
     }
     let vn = c.normal_velocity(bodies);
-    let gn = relative_gravity(c, bodies, params.gravity);
+    let gn = pass_gravity(c, bodies, params);
     vn < -threshold(c, params, chain) && closes_within(gap(c, met), vn, gn, params)
 }
 
@@ -575,9 +579,20 @@ pub(super) fn time_of_impact(s: f32, vn: f32, gn: f32) -> f32 {
 }
 
 /// Relative acceleration of the pair along the normal due to gravity, `(g_B - g_A) . n`, with
-/// gravity acting on dynamic bodies only.
+/// gravity acting on dynamic bodies only; with `extra`, each dynamic body's
+/// [`extra_acceleration`](SolverBody::extra_acceleration) is added to its gravity (see
+/// [`SolverBody::acceleration`]).
 #[inline]
-pub(super) fn relative_gravity(c: &ContactConstraint, bodies: &[SolverBody], gravity: Vec3) -> f32 {
+pub(super) fn relative_gravity(
+    c: &ContactConstraint,
+    bodies: &[SolverBody],
+    gravity: Vec3,
+    extra: bool,
+) -> f32 {
+    let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
+    if extra && (a.extra_acceleration != Vec3::ZERO || b.extra_acceleration != Vec3::ZERO) {
+        return (b.acceleration(gravity) - a.acceleration(gravity)).dot(c.normal);
+    }
     if gravity == Vec3::ZERO {
         return 0.0;
     }
@@ -591,6 +606,13 @@ pub(super) fn relative_gravity(c: &ContactConstraint, bodies: &[SolverBody], gra
     (g(c.body_b) - g(c.body_a)).dot(c.normal)
 }
 
+/// The pair's relative acceleration along the normal that is integrated after the pass,
+/// `params.gravity` with the bodies' extra accelerations when they come after it too.
+#[inline]
+fn pass_gravity(c: &ContactConstraint, bodies: &[SolverBody], params: &Propagation) -> f32 {
+    relative_gravity(c, bodies, params.gravity, !params.accelerations_integrated)
+}
+
 /// When the group's impact happens within the step: its earliest closing point's time of
 /// impact, not before either body's latest impact (see [`propagate`]).
 fn group_time(
@@ -602,7 +624,7 @@ fn group_time(
 ) -> f32 {
     let rows = &contacts[group.clone()];
     let (ia, ib) = (rows[0].body_a, rows[0].body_b);
-    let gn = relative_gravity(&rows[0], bodies, params.gravity);
+    let gn = pass_gravity(&rows[0], bodies, params);
     let geometric = rows
         .iter()
         .filter_map(|c| {
@@ -720,8 +742,13 @@ fn resolve_event(
                 before.push((i, bodies[i].linear_velocity, bodies[i].angular_velocity));
             }
         }
-        let gn = relative_gravity(first, bodies, params.gravity);
-        let integrated = relative_gravity(first, bodies, params.integrated_gravity);
+        let gn = pass_gravity(first, bodies, params);
+        let integrated = relative_gravity(
+            first,
+            bodies,
+            params.integrated_gravity,
+            params.accelerations_integrated,
+        );
         for index in range {
             let start = &contacts[index];
             if joined[g] {
@@ -886,6 +913,7 @@ mod tests {
             dt: 1.0 / 60.0,
             gravity: Vec3::ZERO,
             integrated_gravity: Vec3::ZERO,
+            accelerations_integrated: false,
             substeps: 1,
             max_block_iterations: 64,
             velocity_tolerance: 1e-6,

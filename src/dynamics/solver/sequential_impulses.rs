@@ -50,11 +50,12 @@ pub(super) fn rigid_substeps(
             refresh_inertia(bodies, contacts);
         }
         integrate_velocities(bodies, gravity, h);
-        // The approach without this substep's gravity, but with its gyroscopic update of the
+        // The approach without this substep's gravity (and the bodies' extra accelerations,
+        // integrated with it), but with its gyroscopic update of the
         // spin: the velocities the rows are then solved from.
         arrivals.clear();
         arrivals.extend(contacts.iter().map(|c| {
-            let gn = propagation::relative_gravity(c, bodies, gravity);
+            let gn = propagation::relative_gravity(c, bodies, gravity, true);
             arrival(
                 c,
                 c.normal_velocity(bodies) - gn * h,
@@ -87,7 +88,7 @@ pub(super) fn rigid_substeps(
                     None => bounced.push((
                         i,
                         a.time,
-                        b.linear_velocity - gravity * h,
+                        b.linear_velocity - b.acceleration(gravity) * h,
                         b.angular_velocity,
                     )),
                 }
@@ -119,7 +120,8 @@ pub(super) fn rigid_substeps(
         }
         for &(i, t, v, w) in &bounced {
             let b = &mut bodies[i];
-            b.impact_offset += (v - b.linear_velocity) * t + 0.5 * gravity * t * t;
+            let g = b.acceleration(gravity);
+            b.impact_offset += (v - b.linear_velocity) * t + 0.5 * g * t * t;
             b.impact_rotation += (w - b.angular_velocity) * t;
         }
         integrate_positions(bodies, gravity, h);
