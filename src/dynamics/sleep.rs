@@ -108,6 +108,58 @@ impl Islands {
     }
 }
 
+/// Whether `body`, awake, wakes a sleeping island its box reaches: a dynamic body, or a
+/// kinematic one that moves (a resting kinematic body, like a static one, pushes nothing).
+pub fn wakes_sleepers(body: &SolverBody) -> bool {
+    body.motion == Motion::Dynamic
+        || (body.motion == Motion::Kinematic
+            && (body.linear_velocity != Vec3::ZERO || body.angular_velocity != Vec3::ZERO))
+}
+
+/// The sleeping islands that overlapping `pairs` (body indices) wake, each once, in the order
+/// found: for a pair of which one body sleeps in an island (`island(k)`, `None` when awake)
+/// and the other is awake and [`wakes_sleepers`] (`wakes(k)`), and that would be solved
+/// (`solved(i, j)`: a sensor or a body its layers filter out passes a sleeper without waking
+/// it). The broad phase repeats this until no island wakes (a woken island may reach another).
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::Entity;
+/// use impact3d::dynamics::sleep::islands_woken;
+///
+/// // Body 0 sleeps in island A, body 2 in island B; body 1 is awake and pushes. Pairs (0, 1)
+/// // and (1, 2) wake both islands; pair (0, 2) alone (two sleepers) would wake nothing.
+/// let (a, b) = (Entity::from_raw_u32(7).unwrap(), Entity::from_raw_u32(9).unwrap());
+/// let island = |k: usize| [Some(a), None, Some(b)][k];
+/// let woken = islands_woken(&[(0, 2), (0, 1), (1, 2)], island, |k| k == 1, |_, _| true);
+/// assert_eq!(woken, vec![a, b]);
+/// // Not where the pair would not be solved.
+/// let woken = islands_woken(&[(0, 1), (1, 2)], island, |k| k == 1, |i, j| i + j == 3);
+/// assert_eq!(woken, vec![b]);
+/// ```
+pub fn islands_woken(
+    pairs: &[(u32, u32)],
+    island: impl Fn(usize) -> Option<Entity>,
+    wakes: impl Fn(usize) -> bool,
+    solved: impl Fn(usize, usize) -> bool,
+) -> Vec<Entity> {
+    let mut islands = Vec::new();
+    for &(i, j) in pairs {
+        for (me, other) in [(i as usize, j as usize), (j as usize, i as usize)] {
+            if let Some(sleeping) = island(me)
+                && wakes(other)
+                && island(other).is_none()
+                && !islands.contains(&sleeping)
+                && solved(me, other)
+            {
+                islands.push(sleeping);
+            }
+        }
+    }
+    islands
+}
+
 /// The links that make islands (for [`islands_to_sleep`]): the touching `pairs` (body indices
 /// into `bodies`) of two dynamic bodies, or of a dynamic body and a moving kinematic one (a
 /// body on a moving platform never sleeps: its island gets a member that is never slow).

@@ -6,6 +6,7 @@ use bevy::prelude::*;
 
 use crate::collision::ContactPairs;
 use crate::collision::broad_phase::{BroadPhaseTree, TREE_MARGIN};
+use crate::dynamics::sleep::{islands_woken, wakes_sleepers};
 use crate::dynamics::solver::Motion;
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
@@ -49,27 +50,12 @@ pub fn update_broad_phase(
         bring_in_overlapped(state);
         tree.sync(&state.entities, &state.aabbs, margin);
         tree.pairs_with_active(&state.aabbs, &state.active, &mut state.index_pairs);
-        let mut islands = Vec::new();
-        for &(i, j) in &state.index_pairs {
-            for (me, other) in [(i as usize, j as usize), (j as usize, i as usize)] {
-                if let Some((island, _)) = state.asleep[me] {
-                    let o = &state.bodies[other];
-                    let active = o.motion == Motion::Dynamic
-                        || (o.motion == Motion::Kinematic
-                            && (o.linear_velocity != Vec3::ZERO
-                                || o.angular_velocity != Vec3::ZERO));
-                    // Only a pair that is solved pushes: a body its layers filter out, or a
-                    // sensor, passes a sleeper without waking it.
-                    if active
-                        && state.asleep[other].is_none()
-                        && !islands.contains(&island)
-                        && state.pair_kind(me, other) == Some(PairKind::Solved)
-                    {
-                        islands.push(island);
-                    }
-                }
-            }
-        }
+        let islands = islands_woken(
+            &state.index_pairs,
+            |k| state.asleep[k].map(|(island, _)| island),
+            |k| wakes_sleepers(&state.bodies[k]),
+            |i, j| state.pair_kind(i, j) == Some(PairKind::Solved),
+        );
         if islands.is_empty() || !wake_islands(state, &islands) {
             break;
         }
