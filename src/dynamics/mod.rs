@@ -8,8 +8,8 @@ pub mod validation;
 
 pub use mass::ComputedMass;
 pub use rigid_body::{
-    AngularVelocity, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass, Quarantined,
-    Restitution, RigidBody,
+    AngularVelocity, CoefficientCombine, CombineRules, Density, Friction, FrictionCombine, Gravity,
+    LinearVelocity, LockedAxes, Mass, Quarantined, Restitution, RestitutionCombine, RigidBody,
 };
 pub use sleep::{SleepConfig, SleepTimer, Sleeping};
 pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
@@ -40,6 +40,8 @@ impl Plugin for DynamicsPlugin {
             .register_type::<AngularVelocity>()
             .register_type::<Restitution>()
             .register_type::<Friction>()
+            .register_type::<RestitutionCombine>()
+            .register_type::<FrictionCombine>()
             .register_type::<Mass>()
             .register_type::<Density>()
             .register_type::<LockedAxes>()
