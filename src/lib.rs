@@ -23,15 +23,18 @@ pub use messages::{CollisionEnd, CollisionEnded, CollisionStart, CollisionStarte
 pub mod prelude {
     pub use crate::PhysicsPlugins;
     pub use crate::collision::{
-        Collider, CollidingEntities, CollisionEventsEnabled, CollisionLayers, LayerMask,
-        PhysicsLayer, Sensor,
+        Collider, ColliderConstructor, ColliderConstructorHierarchy,
+        ColliderConstructorHierarchyConfig, ColliderConstructorHierarchyReady,
+        ColliderConstructorReady, CollidingEntities, CollisionEventsEnabled, CollisionLayers,
+        LayerMask, PhysicsLayer, Sensor,
     };
     #[cfg(feature = "debug")]
     pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};
     pub use crate::dynamics::{
-        AngularVelocity, ComputedMass, Density, Friction, Gravity, ImpactMessages, LinearVelocity,
-        LockedAxes, Mass, PhysicsLengthUnit, Quarantined, Restitution, RigidBody, SleepConfig,
-        Sleeping, SolverConfig, SolverMethod, SolverStats,
+        AngularVelocity, CoefficientCombine, ComputedMass, Density, Friction, FrictionCombine,
+        Gravity, ImpactMessages, LinearVelocity, LockedAxes, Mass, PhysicsLengthUnit, Quarantined,
+        Restitution, RestitutionCombine, RigidBody, SleepConfig, Sleeping, SolverConfig,
+        SolverMethod, SolverStats,
     };
     pub use crate::interpolation::{
         InterpolationConfig, InterpolationPlugin, TransformInterpolation,
