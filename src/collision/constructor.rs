@@ -165,6 +165,8 @@ impl ColliderConstructor {
         self.build_with(&|_: &Self| unreachable!("no mesh variants without the `mesh` feature"))
     }
 
+    // Without the `mesh` feature no variant reads `from_mesh`: it is only passed on to parts.
+    #[cfg_attr(not(feature = "mesh"), allow(clippy::only_used_in_recursion))]
     fn build_with(&self, from_mesh: &dyn Fn(&Self) -> Collider) -> Collider {
         match self {
             Self::Sphere { radius } => Collider::sphere(*radius),
@@ -349,18 +351,21 @@ fn build_now(constructor: &ColliderConstructor, _: MeshOf, _: &Meshes) -> Option
     Some(constructor.build())
 }
 
+/// What [`build_collider_constructors`] reads of an entity.
+type ConstructorData<'a> = (
+    Entity,
+    &'a ColliderConstructor,
+    Has<Collider>,
+    Option<&'a Name>,
+    MeshOf<'a>,
+);
+
 /// Replaces each [`ColliderConstructor`] with the [`Collider`] it describes, as soon as it can
 /// be built (see the constructor's doc). Runs in `PreUpdate`.
 pub fn build_collider_constructors(
     mut commands: Commands,
     meshes: Meshes,
-    constructors: Query<(
-        Entity,
-        &ColliderConstructor,
-        Has<Collider>,
-        Option<&Name>,
-        MeshOf,
-    )>,
+    constructors: Query<ConstructorData>,
 ) {
     for (entity, constructor, has_collider, name, mesh) in &constructors {
         if has_collider {
