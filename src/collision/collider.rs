@@ -13,8 +13,8 @@ use crate::dynamics::validation::{MAX_LENGTH, within};
 /// [`Density`](crate::dynamics::Density) unless [`Mass`](crate::dynamics::Mass) overrides them.
 ///
 /// Constructors that cannot fail in their signature (`sphere`, `cuboid`, `capsule`, `cylinder`,
-/// `cone`, `round_cuboid`, `compound`, `trimesh`, `heightfield`, `half_space`) still accept bad
-/// input (empty, degenerate, non-finite or out of range, sizes
+/// `cone`, `round_cuboid`, `compound`, `trimesh`, `convex_decomposition`, `heightfield`,
+/// `half_space`, and with feature `mesh` the `..._from_mesh` ones) still accept bad input (empty, degenerate, non-finite or out of range, sizes
 /// above [`MAX_LENGTH`]): such a collider carries the reason, and the body that uses it is
 /// quarantined with a logged error naming the entity instead of entering the solve. No
 /// constructor panics.
