@@ -306,8 +306,12 @@ fn arc_segments(
 /// | ball | three great circles, `3 n` (`n` = `circle_segments`) |
 /// | cuboid | 12 edges |
 /// | capsule | a ring at each end of the axis, 4 lines along it, two half circles over each cap: `4 n + 4` |
+/// | cylinder | a ring at each end, 4 lines along its side: `2 n + 4` |
+/// | cone | a ring at its base, 4 lines to its apex: `n + 4` |
+/// | rounded box | its inner box and its outer bounding box: 24 |
+/// | compound | each part's wireframe at its pose |
 /// | convex polyhedron | its edges |
-/// | triangle mesh | its distinct triangle edges |
+/// | triangle mesh, heightfield | their distinct triangle edges |
 /// | half-space | a square grid of `half_space_lines` lines each way, `half_space_size` from the body origin: `2 x lines` |
 /// | anything else | its local bounding box, 12 |
 pub fn shape_segments(
@@ -345,6 +349,57 @@ pub fn shape_segments(
             // Half circles from w through the axis tip to -w.
             arc_segments(b, w, axis, r, (0.0, TAU / 2.0), n / 2, out);
             arc_segments(a, w, -axis, r, (0.0, TAU / 2.0), n / 2, out);
+        }
+    } else if let Some(cylinder) = shape.as_cylinder() {
+        let (r, hh) = (cylinder.radius, cylinder.half_height);
+        let (top, bottom) = (origin + hh * y, origin - hh * y);
+        for c in [top, bottom] {
+            arc_segments(c, x, z, r, (0.0, TAU), n, out);
+        }
+        for side in [x, -x, z, -z] {
+            out.push([bottom + r * side, top + r * side]);
+        }
+    } else if let Some(cone) = shape.as_cone() {
+        let (r, hh) = (cone.radius, cone.half_height);
+        let (apex, base) = (origin + hh * y, origin - hh * y);
+        arc_segments(base, x, z, r, (0.0, TAU), n, out);
+        for side in [x, -x, z, -z] {
+            out.push([base + r * side, apex]);
+        }
+    } else if let Some(round) = shape.as_round_cuboid() {
+        let h = round.inner_shape.half_extents;
+        box_segments(-h, h, pose, out);
+        let outer = h + Vec3::splat(round.border_radius);
+        box_segments(-outer, outer, pose, out);
+    } else if let Some(compound) = shape.as_compound() {
+        for (part_pose, part) in compound.shapes() {
+            shape_segments(part.as_ref(), &(pose * *part_pose), config, out);
+        }
+    } else if let Some(field) = shape.as_heightfield() {
+        let mut edges: Vec<[Vec3; 2]> = Vec::new();
+        for tri in field.triangles() {
+            for (p, q) in [(tri.a, tri.b), (tri.b, tri.c), (tri.c, tri.a)] {
+                let (p, q) = if p.to_array() <= q.to_array() {
+                    (p, q)
+                } else {
+                    (q, p)
+                };
+                edges.push([p, q]);
+            }
+        }
+        edges.sort_unstable_by(|e, f| {
+            e[0].to_array()
+                .partial_cmp(&f[0].to_array())
+                .unwrap_or(std::cmp::Ordering::Equal)
+                .then(
+                    e[1].to_array()
+                        .partial_cmp(&f[1].to_array())
+                        .unwrap_or(std::cmp::Ordering::Equal),
+                )
+        });
+        edges.dedup();
+        for [p, q] in edges {
+            out.push([pose.transform_point(p), pose.transform_point(q)]);
         }
     } else if let Some(hull) = shape.as_convex_polyhedron() {
         let points = hull.points();

@@ -23,18 +23,21 @@ pub use messages::{CollisionEnd, CollisionEnded, CollisionStart, CollisionStarte
 pub mod prelude {
     pub use crate::PhysicsPlugins;
     pub use crate::collision::{
-        Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers,
-        LayerMask, PhysicsLayer, Sensor,
+        Collider, ColliderConstructor, ColliderConstructorHierarchy,
+        ColliderConstructorHierarchyConfig, ColliderConstructorHierarchyReady,
+        ColliderConstructorReady, ColliderDisabled, CollidingEntities, CollisionEventsEnabled,
+        CollisionLayers, LayerMask, PhysicsLayer, Sensor,
     };
     #[cfg(feature = "debug")]
     pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};
     pub use crate::dynamics::{
-        AccumulatedForces, AngularDamping, AngularVelocity, ComputedMass,
+        AccumulatedForces, AngularDamping, AngularVelocity, CoefficientCombine, ComputedMass,
         ConstantAngularAcceleration, ConstantForce, ConstantLinearAcceleration, ConstantLocalForce,
-        ConstantLocalTorque, ConstantTorque, Density, Forces, Friction, Gravity, GravityScale,
-        ImpactMessages, LinearDamping, LinearVelocity, LockedAxes, Mass, MaxAngularSpeed,
-        MaxLinearSpeed, PhysicsLengthUnit, Quarantined, Restitution, RigidBody, RigidBodyDisabled,
-        SleepConfig, Sleeping, SleepingDisabled, SolverConfig, SolverMethod, SolverStats,
+        ConstantLocalTorque, ConstantTorque, Density, Forces, Friction, FrictionCombine, Gravity,
+        GravityScale, ImpactMessages, LinearDamping, LinearVelocity, LockedAxes, Mass,
+        MaxAngularSpeed, MaxLinearSpeed, PhysicsLengthUnit, Quarantined, Restitution,
+        RestitutionCombine, RigidBody, RigidBodyDisabled, SleepConfig, Sleeping, SleepingDisabled,
+        SolverConfig, SolverMethod, SolverStats,
     };
     pub use crate::interpolation::{
         InterpolationConfig, InterpolationPlugin, TransformInterpolation,

@@ -170,6 +170,55 @@ fn every_shape_and_state_has_its_wireframe() {
     }
 }
 
+/// The shapes beyond the first six: cylinder (two rings of 24 and 4 side lines), cone (a ring
+/// and 4 lines to the apex), rounded box (inner and outer box, 24), compound of two boxes
+/// (each 12), heightfield of 3 x 3 samples (2 x 2 cells: 6 + 6 grid edges and 4 diagonals,
+/// 16). Every point of the cylinder's wireframe lies on its surface: at radius 0.4 from its
+/// axis and at +-0.5 (tolerance 1e-5, f32 rounding of sines and cosines times 0.4).
+#[test]
+fn new_shapes_have_their_wireframes() {
+    let mut app = app(layers(true, false, false, false));
+    let world = app.world_mut();
+    world.insert_resource(Gravity(Vec3::ZERO));
+    let dynamic = |collider: Collider, x: f32| {
+        (
+            RigidBody::Dynamic,
+            collider,
+            Transform::from_xyz(x, 0.0, 0.0),
+        )
+    };
+    world.spawn(dynamic(Collider::cylinder(0.4, 1.0), 0.0));
+    world.spawn(dynamic(Collider::cone(0.4, 1.0), 5.0));
+    world.spawn(dynamic(Collider::round_cuboid(1.0, 1.0, 1.0, 0.1), 10.0));
+    world.spawn(dynamic(
+        Collider::compound(vec![
+            (Vec3::ZERO, Quat::IDENTITY, Collider::cuboid(0.5, 0.5, 0.5)),
+            (Vec3::Y, Quat::IDENTITY, Collider::cuboid(0.25, 0.25, 0.25)),
+        ]),
+        15.0,
+    ));
+    world.spawn((
+        RigidBody::Static,
+        Collider::heightfield(vec![vec![0.0; 3]; 3], Vec3::new(2.0, 1.0, 2.0)),
+        Transform::from_xyz(20.0, 0.0, 0.0),
+    ));
+    app.update();
+    let s = segments(&app);
+    let n = 24;
+    let config = PhysicsGizmos::default();
+    assert_eq!(
+        count_color(&s, config.dynamic_color),
+        (2 * n + 4) + (n + 4) + 24 + 24
+    );
+    assert_eq!(count_color(&s, config.static_color), 16);
+    for (a, b, _) in s.iter().filter(|x| x.0.x.abs() < 1.0 && x.1.x.abs() < 1.0) {
+        for p in [a, b] {
+            assert!((p.xz().length() - 0.4).abs() < 1e-5, "{p}");
+            assert!((p.y.abs() - 0.5).abs() < 1e-5, "{p}");
+        }
+    }
+}
+
 /// The bounding-box layer adds 12 segments per bounded collider (half-spaces have none), each
 /// of them along a world axis.
 #[test]

@@ -61,7 +61,7 @@ impl ComputedMass {
         } else if !(density.is_finite() && density > 0.0) {
             return Err(format!("density must be finite and > 0, got {density}"));
         }
-        let mut props = collider.shape().mass_properties(density);
+        let mut props = collider.mass_properties(density);
         if let Some(m) = mass {
             props.set_mass(m, true);
         }

@@ -14,8 +14,9 @@ pub use forces::{
 };
 pub use mass::ComputedMass;
 pub use rigid_body::{
-    AngularVelocity, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass, Quarantined,
-    Restitution, RigidBody, RigidBodyDisabled,
+    AngularVelocity, CoefficientCombine, CombineRules, Density, Friction, FrictionCombine, Gravity,
+    LinearVelocity, LockedAxes, Mass, Quarantined, Restitution, RestitutionCombine, RigidBody,
+    RigidBodyDisabled,
 };
 pub use sleep::{SleepConfig, SleepTimer, Sleeping, SleepingDisabled};
 pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
@@ -46,6 +47,8 @@ impl Plugin for DynamicsPlugin {
             .register_type::<AngularVelocity>()
             .register_type::<Restitution>()
             .register_type::<Friction>()
+            .register_type::<RestitutionCombine>()
+            .register_type::<FrictionCombine>()
             .register_type::<Mass>()
             .register_type::<Density>()
             .register_type::<LockedAxes>()

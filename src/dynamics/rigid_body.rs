@@ -82,18 +82,95 @@ pub struct LinearVelocity(pub Vec3);
 pub struct AngularVelocity(pub Vec3);
 
 /// Coefficient of restitution `e` in `[0, 1]`: the ratio of separation to approach speed in an
-/// impact. Default 0 (perfectly inelastic). A pair uses the larger of its two bodies' values.
+/// impact. Default 0 (perfectly inelastic). A pair uses the larger of its two bodies' values,
+/// unless one of them has a [`RestitutionCombine`].
 /// Values outside `[0, 1]` are clamped, with a warning naming the entity.
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Deref, DerefMut)]
 #[reflect(Component, Debug, Default, PartialEq)]
 pub struct Restitution(pub f32);
 
 /// Coulomb friction coefficient, dimensionless. Default 0: friction is off and costs nothing.
-/// A pair uses the larger of its two bodies' values; friction acts in the resting-contact solve
+/// A pair uses the larger of its two bodies' values (unless one of them has a
+/// [`FrictionCombine`]); friction acts in the resting-contact solve
 /// (see [`SolverMethod`](crate::dynamics::solver::SolverMethod)).
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Deref, DerefMut)]
 #[reflect(Component, Debug, Default, PartialEq)]
 pub struct Friction(pub f32);
+
+/// How a pair's coefficient is made from its two bodies' values (avian3d 0.7's rules and
+/// priority). When the two bodies ask for different rules, the later variant in this list wins:
+/// `Max > Multiply > Min > GeometricMean > Average`.
+///
+/// # Examples
+///
+/// ```
+/// use impact3d::prelude::*;
+///
+/// assert_eq!(CoefficientCombine::Average.mix(0.2, 0.8), 0.5);
+/// assert_eq!(CoefficientCombine::Multiply.mix(0.2, 0.8), 0.2 * 0.8);
+/// assert!(CoefficientCombine::Max > CoefficientCombine::Min);
+/// ```
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[reflect(Debug, PartialEq)]
+pub enum CoefficientCombine {
+    /// `(a + b) / 2`.
+    Average = 1,
+    /// `sqrt(a b)`.
+    GeometricMean = 2,
+    /// `min(a, b)`.
+    Min = 3,
+    /// `a b`.
+    Multiply = 4,
+    /// `max(a, b)`: impact3d's rule for pairs whose bodies ask for none.
+    Max = 5,
+}
+
+impl CoefficientCombine {
+    /// The coefficient of a pair whose bodies have `a` and `b` under this rule.
+    pub fn mix(self, a: f32, b: f32) -> f32 {
+        match self {
+            CoefficientCombine::Average => (a + b) * 0.5,
+            CoefficientCombine::GeometricMean => (a * b).sqrt(),
+            CoefficientCombine::Min => a.min(b),
+            CoefficientCombine::Multiply => a * b,
+            CoefficientCombine::Max => a.max(b),
+        }
+    }
+
+    /// The rule of a pair whose bodies ask for `a` and `b` (`None`: no preference): the
+    /// higher-priority one, [`Max`](Self::Max) when neither asks.
+    pub fn of_pair(a: Option<Self>, b: Option<Self>) -> Self {
+        a.max(b).unwrap_or(CoefficientCombine::Max)
+    }
+}
+
+/// The rule by which this body's [`Restitution`] combines with another body's in a contact
+/// (see [`CoefficientCombine`] for the priority when the two ask for different rules). Without
+/// it a body states no preference: a pair where neither body has one uses `Max`, as before
+/// combine rules existed.
+///
+/// A separate component rather than a field of [`Restitution`] (avian3d puts a
+/// `combine_rule` field there) so that `Restitution(f32)` stays the tuple struct every scene
+/// writes, and so that "no preference" exists: impact3d's default rule, `Max`, has the highest
+/// priority, so a default that took part in the priority would override every body's choice.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq, Deref, DerefMut)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct RestitutionCombine(pub CoefficientCombine);
+
+/// The rule by which this body's [`Friction`] combines with another body's in a contact: as
+/// [`RestitutionCombine`] for friction (no preference without it; `Max` when neither asks).
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq, Deref, DerefMut)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct FrictionCombine(pub CoefficientCombine);
+
+/// The combine rules a body asks for (`None`: no preference), as the step keeps them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CombineRules {
+    /// From [`RestitutionCombine`].
+    pub restitution: Option<CoefficientCombine>,
+    /// From [`FrictionCombine`].
+    pub friction: Option<CoefficientCombine>,
+}
 
 /// Optional mass override in kg. Without it the mass is the collider's volume times [`Density`];
 /// with it the inertia is scaled to match, keeping the collider's mass distribution.

@@ -21,6 +21,7 @@ use parry3d::shape::SharedShape;
 use crate::collision::broad_phase::{is_unbounded, overlaps, sort_by_lower_bound, sweep_axis};
 use crate::collision::layers::CollisionLayers;
 use crate::collision::sensor::Reporting;
+use crate::dynamics::rigid_body::CombineRules;
 use crate::dynamics::solver::{Motion, SolverBody};
 
 /// Marks a sleeping body. Insert `Sleeping::default()` to put a body to sleep on its own;
@@ -241,6 +242,8 @@ pub struct Sleeper {
     pub restitution: f32,
     /// Friction coefficient, clamped.
     pub friction: f32,
+    /// The combine rules it asks for.
+    pub combine: CombineRules,
     /// Its collision layers.
     pub layers: CollisionLayers,
     /// What it asks the step to report.
@@ -471,6 +474,7 @@ mod tests {
             pose: Pose::from_parts(p, Quat::IDENTITY),
             restitution: 0.0,
             friction: 0.0,
+            combine: CombineRules::default(),
             layers: CollisionLayers::DEFAULT,
             reporting: Reporting::default(),
             radius: r,

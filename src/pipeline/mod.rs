@@ -44,7 +44,7 @@ use crate::dynamics::forces::BodyMotion;
 use crate::dynamics::sleep::{SleepConfig, SleepingSet};
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
-use crate::dynamics::{Gravity, SolverConfig};
+use crate::dynamics::{CombineRules, Gravity, SolverConfig};
 use crate::messages::Impact;
 use crate::schedule::PhysicsTime;
 
@@ -75,6 +75,8 @@ pub struct PhysicsState {
     poses: Vec<Pose>,
     restitution: Vec<f32>,
     friction: Vec<f32>,
+    /// The combine rules each body asks for.
+    combine: Vec<CombineRules>,
     /// Each body's collision layers ([`CollisionLayers::DEFAULT`] without the component).
     layers: Vec<CollisionLayers>,
     /// What each body asks the step to report (sensor, events, colliding entities).
@@ -537,6 +539,7 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
     state.poses.push(s.pose);
     state.restitution.push(s.restitution);
     state.friction.push(s.friction);
+    state.combine.push(s.combine);
     state.layers.push(s.layers);
     state.reporting.push(s.reporting);
     state.reach.push(0.0);

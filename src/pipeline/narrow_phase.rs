@@ -10,6 +10,7 @@ use crate::collision::ContactPairs;
 use crate::collision::narrow_phase::{
     ContactImpulse, Meeting, StepMotion, binary_unit, face_normal_toward, time_of_impact,
 };
+use crate::dynamics::CoefficientCombine;
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
@@ -158,8 +159,12 @@ pub fn update_narrow_phase(
                 Meeting::At(_) | Meeting::Unknown => {}
             }
         }
-        let restitution = state.restitution[ia].max(state.restitution[ib]);
-        let friction = state.friction[ia].max(state.friction[ib]);
+        // Each coefficient by the pair's rule (`Max` unless a body asks for another).
+        let (rules_a, rules_b) = (state.combine[ia], state.combine[ib]);
+        let restitution = CoefficientCombine::of_pair(rules_a.restitution, rules_b.restitution)
+            .mix(state.restitution[ia], state.restitution[ib]);
+        let friction = CoefficientCombine::of_pair(rules_a.friction, rules_b.friction)
+            .mix(state.friction[ia], state.friction[ib]);
         let turning = Turning::of(state, ia, ib);
         let start = rows.contacts.len();
         if let Some((t, motion_a, motion_b)) = impact_time {

@@ -25,8 +25,9 @@ use crate::dynamics::validation::{
     MAX_LINEAR_SPEED, PhysicsLengthUnit, body_label, check_length, within,
 };
 use crate::dynamics::{
-    AngularVelocity, ComputedMass, Density, Friction, Gravity, LinearVelocity, LockedAxes, Mass,
-    Quarantined, Restitution, RigidBody, RigidBodyDisabled, SolverConfig,
+    AngularVelocity, CombineRules, ComputedMass, Density, Friction, FrictionCombine, Gravity,
+    LinearVelocity, LockedAxes, Mass, Quarantined, Restitution, RestitutionCombine, RigidBody,
+    RigidBodyDisabled, SolverConfig,
 };
 use crate::schedule::{PhysicsSchedule, PhysicsSystems, PhysicsTime};
 
@@ -56,6 +57,8 @@ pub struct BodyData {
     angular_velocity: Option<Ref<'static, AngularVelocity>>,
     restitution: Option<Ref<'static, Restitution>>,
     friction: Option<Ref<'static, Friction>>,
+    restitution_combine: Option<&'static RestitutionCombine>,
+    friction_combine: Option<&'static FrictionCombine>,
     mass: Option<Ref<'static, Mass>>,
     density: Option<Ref<'static, Density>>,
     computed: Option<&'static mut ComputedMass>,
@@ -117,8 +120,13 @@ type Disturbed = Or<(
     Changed<RigidBody>,
     Changed<LinearVelocity>,
     Changed<AngularVelocity>,
-    Changed<Restitution>,
-    Changed<Friction>,
+    // (Bevy's filter tuples hold at most 15.)
+    Or<(
+        Changed<Restitution>,
+        Changed<Friction>,
+        Changed<RestitutionCombine>,
+        Changed<FrictionCombine>,
+    )>,
     Changed<Mass>,
     Changed<Density>,
     Changed<ComputedMass>,
@@ -172,6 +180,8 @@ pub struct BodyRemovals<'w, 's> {
     angular: RemovedComponents<'w, 's, AngularVelocity>,
     restitution: RemovedComponents<'w, 's, Restitution>,
     friction: RemovedComponents<'w, 's, Friction>,
+    restitution_combine: RemovedComponents<'w, 's, RestitutionCombine>,
+    friction_combine: RemovedComponents<'w, 's, FrictionCombine>,
     mass: RemovedComponents<'w, 's, Mass>,
     density: RemovedComponents<'w, 's, Density>,
     computed: RemovedComponents<'w, 's, ComputedMass>,
@@ -294,6 +304,7 @@ fn begin_step(state: &mut PhysicsState) {
     state.poses.clear();
     state.restitution.clear();
     state.friction.clear();
+    state.combine.clear();
     state.layers.clear();
     state.reporting.clear();
     state.reach.clear();
@@ -331,6 +342,8 @@ fn sleepers_to_read(
         removals.angular.read().collect(),
         removals.restitution.read().collect(),
         removals.friction.read().collect(),
+        removals.restitution_combine.read().collect(),
+        removals.friction_combine.read().collect(),
         removals.mass.read().collect(),
         removals.density.read().collect(),
         removals.computed.read().collect(),
@@ -393,6 +406,7 @@ fn gather_sleeper(
                     pose: state.poses[i],
                     restitution: state.restitution[i],
                     friction: state.friction[i],
+                    combine: state.combine[i],
                     layers: state.layers[i],
                     reporting: state.reporting[i],
                     radius: state.radius[i],
@@ -613,6 +627,10 @@ fn gather_body(
         item.friction.as_deref().map(|f| f.0),
         f32::INFINITY,
     ));
+    state.combine.push(CombineRules {
+        restitution: item.restitution_combine.map(|c| c.0),
+        friction: item.friction_combine.map(|c| c.0),
+    });
     state
         .layers
         .push(item.layers.as_deref().copied().unwrap_or_default());
