@@ -368,6 +368,17 @@ mod tests {
     use crate::impulse::{ImpulseBody, inverse_effective_mass};
     use bevy::math::{BVec3, Mat3};
 
+    /// A solver body as the impulse formula's reference API sees it.
+    fn as_impulse(b: &SolverBody) -> ImpulseBody {
+        ImpulseBody {
+            inverse_mass: b.inverse_mass,
+            inverse_inertia: b.inverse_inertia,
+            center_of_mass: b.position,
+            linear_velocity: b.linear_velocity,
+            angular_velocity: b.angular_velocity,
+        }
+    }
+
     /// The prepared effective mass is the reciprocal of the impulse formula's denominator K.
     #[test]
     fn prepared_mass_matches_impulse_formula() {
@@ -390,13 +401,6 @@ mod tests {
         );
         let mut contacts = [ContactConstraint::new(0, 1, p, n, 0.0, 0.0, 0.0)];
         prepare_contacts(&bodies, &mut contacts);
-        let as_impulse = |b: &SolverBody| ImpulseBody {
-            inverse_mass: b.inverse_mass,
-            inverse_inertia: b.inverse_inertia,
-            center_of_mass: b.position,
-            linear_velocity: b.linear_velocity,
-            angular_velocity: b.angular_velocity,
-        };
         let k = inverse_effective_mass(&as_impulse(&bodies[0]), &as_impulse(&bodies[1]), p, n);
         // Relative 1e-6: the two compute the same sums in a different order.
         assert!((contacts[0].normal_mass * k - 1.0).abs() <= 1e-6);
@@ -455,13 +459,6 @@ mod tests {
             let point = vec(1.0, &mut unit);
             let normal = vec(1.0, &mut unit).normalize_or(Vec3::Y);
             let e = unit();
-            let as_impulse = |b: &SolverBody| ImpulseBody {
-                inverse_mass: b.inverse_mass,
-                inverse_inertia: b.inverse_inertia,
-                center_of_mass: b.position,
-                linear_velocity: b.linear_velocity,
-                angular_velocity: b.angular_velocity,
-            };
             let (mut a, mut b) = (as_impulse(&bodies[0]), as_impulse(&bodies[1]));
             if crate::impulse::normal_velocity(&a, &b, point, normal) >= 0.0 {
                 continue;
