@@ -16,7 +16,8 @@ use crate::dynamics::validation::{MAX_LENGTH, within};
 pub struct ColliderDisabled;
 
 /// The collision shape of a body, placed at the entity's `Transform` (bodies are top-level
-/// entities; scale is ignored). Mass and inertia come from its volume times
+/// entities; scale is ignored; a `Transform` is required, so a collider spawned without one
+/// gets the identity). Mass and inertia come from its volume times
 /// [`Density`](crate::dynamics::Density) unless [`Mass`](crate::dynamics::Mass) overrides them.
 ///
 /// Constructors that cannot fail in their signature (`sphere`, `cuboid`, `capsule`, `cylinder`,
@@ -37,6 +38,7 @@ pub struct ColliderDisabled;
 /// assert!(Collider::sphere(-1.0).error().is_some());
 /// ```
 #[derive(Component, Clone)]
+#[require(Transform)]
 pub struct Collider {
     shape: SharedShape,
     error: Option<String>,

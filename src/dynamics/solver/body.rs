@@ -138,11 +138,6 @@ impl SolverBody {
             _ => Vec3::ZERO,
         }
     }
-
-    /// True when contacts can change this body's rotation.
-    pub fn rotates_under_contact(&self) -> bool {
-        self.motion == Motion::Dynamic && self.inverse_inertia != Mat3::ZERO
-    }
 }
 
 /// Adds gravity over `h` seconds to every dynamic body, `v += g h` (`v += (g + a) h` for a
