@@ -17,7 +17,8 @@ fn main() {
         .insert_resource(Time::<Fixed>::from_hz(60.0))
         .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
         .add_systems(Startup, spawn_scene)
-        .add_systems(FixedLast, report_impacts);
+        // Right after each step, in the schedule that steps physics.
+        .add_systems(FixedPostUpdate, report_impacts.in_set(PhysicsSystems::Last));
 
     // The first update only records the start time; each later one runs one fixed step.
     for _ in 0..=SECONDS * 60 {

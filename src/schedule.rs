@@ -21,9 +21,31 @@ use bevy::prelude::*;
 #[derive(ScheduleLabel, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct PhysicsSchedule;
 
-/// The stages of a physics step, chained in this order inside [`PhysicsSchedule`].
+/// The stages of a physics step, chained in this order inside [`PhysicsSchedule`]
+/// (`Prepare` to `Messages`); and, in the schedule the plugins step physics in
+/// (`FixedPostUpdate` by default), `First`, `StepSimulation` (the step itself) and `Last`,
+/// chained, so that game systems can run just before or just after the step:
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+///
+/// fn steer(mut bodies: Query<&mut LinearVelocity>) {}
+/// fn react(mut impacts: MessageReader<Impact>) {}
+///
+/// App::new()
+///     .add_plugins((MinimalPlugins, PhysicsPlugins::default()))
+///     .add_systems(FixedPostUpdate, steer.in_set(PhysicsSystems::First))
+///     .add_systems(FixedPostUpdate, react.in_set(PhysicsSystems::Last));
+/// ```
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PhysicsSystems {
+    /// In the stepping schedule: before the step.
+    First,
+    /// In the stepping schedule: the step ([`run_physics_schedule`]).
+    StepSimulation,
+    /// In the stepping schedule: after the step (its messages and components are new).
+    Last,
     /// Validate and gather bodies.
     Prepare,
     /// Candidate pairs from bounding boxes.
@@ -65,7 +87,19 @@ impl Plugin for PhysicsSchedulePlugin {
         app.add_schedule(schedule);
         app.init_resource::<PhysicsTime>()
             .register_type::<PhysicsTime>()
-            .add_systems(self.schedule, run_physics_schedule);
+            .configure_sets(
+                self.schedule,
+                (
+                    PhysicsSystems::First,
+                    PhysicsSystems::StepSimulation,
+                    PhysicsSystems::Last,
+                )
+                    .chain(),
+            )
+            .add_systems(
+                self.schedule,
+                run_physics_schedule.in_set(PhysicsSystems::StepSimulation),
+            );
     }
 }
 

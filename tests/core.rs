@@ -445,3 +445,60 @@ fn collision_started_and_ended_messages() {
     assert_eq!(starts, vec![CollisionStarted(a, b)]);
     assert_eq!(ends, vec![CollisionEnded(a, b)]);
 }
+
+/// What `First` and `Last` saw of the body, by step.
+#[derive(Resource, Default)]
+struct StepOrder {
+    /// x before the step, in `First`.
+    before: Vec<f32>,
+    /// x after the step, in `Last`.
+    after: Vec<f32>,
+}
+
+/// Game systems ordered around the step with `PhysicsSystems::First` and `Last` in the stepping
+/// schedule: a velocity set in `First` moves the body in that same step (`Last` sees it moved
+/// by `v dt`, gravity off, free flight: exact to f32 rounding of one product), and `First` of
+/// the next step sees where `Last` left it.
+#[test]
+fn game_systems_run_just_before_and_after_the_step() {
+    let mut app = headless_app(60.0);
+    app.insert_resource(Gravity(Vec3::ZERO))
+        .init_resource::<StepOrder>()
+        .add_systems(
+            FixedPostUpdate,
+            (|mut order: ResMut<StepOrder>,
+              mut bodies: Query<(&Transform, &mut LinearVelocity)>| {
+                for (t, mut v) in &mut bodies {
+                    order.before.push(t.translation.x);
+                    v.0 = Vec3::X;
+                }
+            })
+            .in_set(PhysicsSystems::First),
+        )
+        .add_systems(
+            FixedPostUpdate,
+            (|mut order: ResMut<StepOrder>, bodies: Query<&Transform, With<RigidBody>>| {
+                for t in &bodies {
+                    order.after.push(t.translation.x);
+                }
+            })
+            .in_set(PhysicsSystems::Last),
+        );
+    app.world_mut()
+        .spawn((RigidBody::Dynamic, Collider::sphere(0.5)));
+    run_steps(&mut app, 2);
+    let order = app.world().resource::<StepOrder>();
+    let dt = 1.0 / 60.0;
+    assert_eq!(order.before.len(), 2);
+    assert_eq!(order.before[0], 0.0, "First ran before the first step");
+    assert!((order.after[0] - dt).abs() <= 1e-7, "{:?}", order.after);
+    assert_eq!(
+        order.before[1], order.after[0],
+        "First sees the last step's result"
+    );
+    assert!(
+        (order.after[1] - 2.0 * dt).abs() <= 1e-7,
+        "{:?}",
+        order.after
+    );
+}
