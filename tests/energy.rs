@@ -826,13 +826,11 @@ fn energy_never_rises_propagation() {
 }
 
 #[test]
-#[ignore = "fails (issue 8): 3 of 200 worlds gain energy, 1.002x-1.006x (11 before this round, 36 before Baumgarte was capped at the push-out speed), all clean spawns, all restitution with friction 0.5 on a fast-spinning body (seeds 122, 131, 139; frictionless they pass): Newton's restitution law with Coulomb friction can create energy (Kane's paradox)"]
 fn energy_never_rises_sequential_impulses() {
     random_worlds(SolverMethod::SequentialImpulses, 0..SHORT);
 }
 
 #[test]
-#[ignore = "fails (issue 8): 3 of 200 worlds gain energy, 1.004x-1.060x (9 before this round), 2 of them clean spawns: seed 107 (a hull spinning at 115 rad/s bouncing on the trimesh, e = 1, 1.060x at step 23), 131 (1.004x), 21 (overlapping, 1.019x); the restitution pass drives each contact to -e times its approach at preparation, which a body turning a quarter turn per step no longer has"]
 fn energy_never_rises_soft_step() {
     random_worlds(SolverMethod::SoftStep, 0..SHORT);
 }

@@ -276,11 +276,14 @@ fn box_flat_propagation_resolves_corners_together() {
     }
 }
 
-/// Case 9: one sequential-impulse iteration (1 substep) spins the box at 1.26 rad/s for e = 1
-/// (pinned within 0.05), and it rises at only 0.49 m/s; `SCENES.md`'s "about 1 rad/s". The spin
+/// Case 9: one sequential-impulse iteration (1 substep) spins the box at 1.34 rad/s for e = 1
+/// (pinned within 0.05), and it rises at only 0.44 m/s; `SCENES.md`'s "about 1 rad/s". (1.26
+/// and 0.49 before restitution kept its energy ledger: the corners solved after the first now
+/// bounce only with what the box's landing gave the island's account, see
+/// `RestitutionLedger`.) The spin
 /// falls with every iteration and first drops below 1e-3 rad/s at 5 iterations (SCENES.md:
 /// "about 8"); converged, the rebound is 1 m/s within 1e-4. With e = 0.5 one iteration gives
-/// 0.95 rad/s (within 0.05).
+/// 0.97 rad/s (0.95 before; pinned within 0.90-1.00).
 #[test]
 fn box_flat_sequential_impulses_spin_until_converged() {
     let si = SolverMethod::SequentialImpulses;
@@ -297,7 +300,7 @@ fn box_flat_sequential_impulses_spin_until_converged() {
             .length()
         })
         .collect();
-    assert_in("SI 1 iteration spin", spins[0], 1.21, 1.31);
+    assert_in("SI 1 iteration spin", spins[0], 1.29, 1.39);
     let (v, _, _, _) = flat_box(
         1.0,
         SolverConfig {
@@ -305,7 +308,7 @@ fn box_flat_sequential_impulses_spin_until_converged() {
             ..with_iterations(si, 1)
         },
     );
-    assert_in("SI 1 iteration rebound", v.y, 0.44, 0.54);
+    assert_in("SI 1 iteration rebound", v.y, 0.39, 0.49);
     for pair in spins.windows(2) {
         assert!(
             pair[1] < pair[0] || pair[1] < 1e-5,

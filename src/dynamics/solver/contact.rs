@@ -5,6 +5,7 @@
 use bevy::math::{Quat, Vec3};
 
 use super::body::{Motion, SolverBody, pair_mut};
+use super::ledger::{NO_LEDGER, RestitutionLedger};
 use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.
@@ -77,6 +78,9 @@ pub struct ContactConstraint {
     pub total_impulse: f32,
     /// The contact was resolved as an impact (approach above the restitution threshold).
     pub impact: bool,
+    /// The row's account in the step's [`RestitutionLedger`](super::ledger::RestitutionLedger)
+    /// ([`NO_LEDGER`](super::ledger::NO_LEDGER): none).
+    pub ledger: u32,
 }
 
 impl ContactConstraint {
@@ -117,6 +121,7 @@ impl ContactConstraint {
             max_normal_impulse: 0.0,
             total_impulse: 0.0,
             impact: false,
+            ledger: super::ledger::NO_LEDGER,
         }
     }
 
@@ -276,6 +281,7 @@ pub fn prepare_contacts(bodies: &[SolverBody], contacts: &mut [ContactConstraint
         c.max_normal_impulse = 0.0;
         c.total_impulse = 0.0;
         c.impact = false;
+        c.ledger = super::ledger::NO_LEDGER;
         if c.normal_mass == 0.0 {
             c.normal_impulse = 0.0;
         }
@@ -318,10 +324,18 @@ pub fn refresh_inertia(bodies: &[SolverBody], contacts: &mut [ContactConstraint]
 }
 
 /// Applies the accumulated impulses (normal and friction) carried over from the previous step
-/// or substep.
-pub fn warm_start(bodies: &mut [SolverBody], contacts: &[ContactConstraint]) {
+/// or substep (its work recorded in `ledger`, on rows that keep one).
+pub fn warm_start(
+    bodies: &mut [SolverBody],
+    contacts: &[ContactConstraint],
+    ledger: &mut RestitutionLedger,
+) {
     for c in contacts {
         if c.normal_impulse != 0.0 {
+            if c.ledger != NO_LEDGER {
+                let vn = c.normal_velocity(bodies);
+                ledger.record(c, vn, vn + c.normal_impulse / c.normal_mass);
+            }
             c.apply_normal_impulse(bodies, c.normal_impulse);
         }
         if c.friction > 0.0 {

@@ -44,14 +44,32 @@ pub(super) fn solve(
     stats.propagation_sweeps = report.sweeps;
     stats.propagation_bound_hit = report.bound_hit;
     if resting_phase_idle(bodies, contacts, config, gravity, dt) {
-        soft_substeps(bodies, contacts, Resting::Idle, config, gravity, dt, stats);
+        soft_substeps(
+            bodies,
+            contacts,
+            Resting::Idle,
+            &mut Settling::default(),
+            config,
+            gravity,
+            dt,
+            stats,
+        );
     } else {
         let mut blocks = shock_order(bodies, contacts, manifolds, config.linear_slop);
         // The sweeps visit the blocks in shock order: lay the contacts out in that order, so
         // that they read them in sequence rather than all over the slice.
         let (mut ordered, origin) = in_block_order(contacts, &mut blocks);
         let resting = Resting::Manifolds(&blocks);
-        soft_substeps(bodies, &mut ordered, resting, config, gravity, dt, stats);
+        soft_substeps(
+            bodies,
+            &mut ordered,
+            resting,
+            &mut Settling::default(),
+            config,
+            gravity,
+            dt,
+            stats,
+        );
         for (block, range) in blocks.iter().zip(origin) {
             contacts[range].copy_from_slice(&ordered[block.range.clone()]);
         }

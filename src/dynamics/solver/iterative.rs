@@ -3,6 +3,7 @@
 
 use super::body::{Motion, SolverBody};
 use super::contact::{ContactConstraint, solve_friction};
+use super::ledger::RestitutionLedger;
 
 /// What one sweep over the contacts did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -37,6 +38,8 @@ pub struct Settling {
     pub(super) last_change: Vec<u32>,
     /// A friction row changed velocities in this sweep.
     pub(super) friction_changed: bool,
+    /// Where the rows' normal impulses record their work (empty: nowhere).
+    pub(super) ledger: RestitutionLedger,
 }
 
 impl Settling {
@@ -57,20 +60,23 @@ impl Settling {
         }
     }
 
-    /// Row `index` of a row-by-row sweep takes `new` as its accumulated normal impulse (already
-    /// clamped): the change is applied to its bodies, recorded, and counted in `largest` (as a
+    /// Row `index` of a row-by-row sweep, at normal velocity `vn`, takes `new` as its
+    /// accumulated normal impulse (already clamped): the change is applied to its bodies,
+    /// recorded (with its work, in the ledger), and counted in `largest` (as a
     /// velocity change, m/s); then its friction is solved.
     #[inline]
     pub(super) fn accept(
         &mut self,
         c: &mut ContactConstraint,
         index: usize,
+        vn: f32,
         new: f32,
         bodies: &mut [SolverBody],
         largest: &mut f32,
     ) {
         let delta = new - c.normal_impulse;
         if delta != 0.0 {
+            self.ledger.record(c, vn, vn + delta / c.normal_mass);
             c.normal_impulse = new;
             c.apply_normal_impulse(bodies, delta);
             *largest = largest.max(delta.abs() / c.normal_mass);

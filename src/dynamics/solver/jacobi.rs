@@ -5,6 +5,7 @@
 use super::body::{Motion, SolverBody};
 use super::contact::{ContactConstraint, solve_friction};
 use super::iterative::Sweep;
+use super::ledger::{NO_LEDGER, RestitutionLedger};
 use super::sequential_impulses::{Arrival, RigidRows};
 use crate::impulse::row_inverse_mass;
 
@@ -26,6 +27,10 @@ pub(super) fn contact_counts(bodies: usize, contacts: &[ContactConstraint]) -> V
 /// `counts` holds how many rows touch each body (see `contact_counts`). The sweep has converged
 /// exactly when no body that a changed row touches is touched by any other row: each changed
 /// row was then solved alone with its full effective mass (a split count of 1).
+///
+/// `deltas` is scratch space; `ledger` records the rows' work and limits their bounces (see
+/// [`RestitutionLedger::record_shared`]).
+#[allow(clippy::too_many_arguments)]
 pub fn jacobi_sweep(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
@@ -33,34 +38,40 @@ pub fn jacobi_sweep(
     arrivals: &[Arrival],
     counts: &[u32],
     split: bool,
-    deltas: &mut Vec<f32>,
+    deltas: &mut Vec<(f32, f32)>,
+    ledger: &mut RestitutionLedger,
 ) -> Sweep {
     deltas.clear();
     for (c, arrival) in contacts.iter_mut().zip(arrivals) {
         if c.normal_mass == 0.0 {
-            deltas.push(0.0);
+            deltas.push((0.0, 0.0));
             continue;
         }
         let vn = c.normal_velocity(bodies);
-        let target = rows.target(c, bodies, arrival.bounce);
+        let target = rows.target(c, bodies, ledger.limited_bounce(c, arrival.bounce, vn));
         let mass = if split {
             split_mass(c, bodies, counts)
         } else {
             c.normal_mass
         };
         let new = (c.normal_impulse + mass * (target - vn)).max(0.0);
-        deltas.push(new - c.normal_impulse);
+        deltas.push((new - c.normal_impulse, vn));
         c.normal_impulse = new;
         c.max_normal_impulse = c.max_normal_impulse.max(new);
     }
     let mut largest = 0.0f32;
     let mut settled = true;
-    for (c, &delta) in contacts.iter().zip(deltas.iter()) {
+    for (c, &(delta, _)) in contacts.iter().zip(deltas.iter()) {
         if delta != 0.0 {
             c.apply_normal_impulse(bodies, delta);
             largest = largest.max(delta.abs() / c.normal_mass);
             let shared = |i: usize| bodies[i].motion == Motion::Dynamic && counts[i] > 1;
             settled &= !shared(c.body_a) && !shared(c.body_b);
+        }
+    }
+    for (c, &(delta, vn)) in contacts.iter().zip(deltas.iter()) {
+        if delta != 0.0 && c.ledger != NO_LEDGER {
+            ledger.record_shared(c, delta, vn, c.normal_velocity(bodies));
         }
     }
     for c in contacts.iter_mut().filter(|c| c.friction > 0.0) {

@@ -20,6 +20,7 @@ pub mod hybrid;
 pub mod iterative;
 pub mod jacobi;
 mod lcp;
+pub mod ledger;
 pub mod propagation;
 pub mod sequential_impulses;
 pub mod soft_step;
