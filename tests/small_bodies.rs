@@ -297,8 +297,8 @@ fn millimetre_die_dropped_on_another_default() {
 /// | method | frictionless | friction 0.5 |
 /// |---|---|---|
 /// | sequential impulses | upper die slides off, 107 mm (80 mm) | slides off, 2.4 mm (1.0 mm) |
-/// | soft step | slides off, 0.16 m (0.20 m) | tumbles from the first step (3 rad/s); the lower die ends sunk its height into the ground, the upper on it, 0.33 mm sideways (slides off, 0.84 mm) |
-/// | propagation | the upper die ends inside the lower, both centres at 0.5 mm, no sideways move (the same before) | the same |
+/// | soft step | slides off, 0.16 m (0.20 m) | tumbles from the first step (3.4 rad/s); the lower die sinks 0.54 mm at most, Box2D's sink for the pair's load (`soft_contact_holds_its_load_under_the_push_out_cap`), the upper tumbles off, both end side by side at `H - s`, 1.1 mm sideways (before that fix: the lower die sank its height into the ground, the upper on it, 0.33 mm; before contacts in the unit: slides off, 0.84 mm) |
+/// | propagation | heights right (within 0.4 um), but the pair rocks, 0.13 mm sideways at most, back on the stack at the end (before `dice_never_end_inside_each_other_propagation`'s fix: the upper die ended inside the lower, both centres at 0.5 mm) | the same (its impacts carry no friction) |
 /// | Jacobi, three dice | sinks 1.2 mm in the first step and bounces, not at rest at 5 s | |
 ///
 /// Not a length left unscaled: a step's fall `g dt^2` is 2.7 mm, 2.7 dice, at 60 Hz, so a
@@ -311,8 +311,12 @@ fn millimetre_die_dropped_on_another_default() {
 /// frictionless stacks are unstable at every size (`stacks_fall_with_the_other_methods`), and
 /// 5 s is 500 time constants of a 1 mm die but 16 of a 1 m one. 50 iterations (converged in the
 /// first step) do not help sequential impulses; 960 Hz does not help (0.19 m, 0.14 m).
-/// Propagation has no position correction: its upper die tips once parry's manifold of the pair
-/// drops from eight points to two (step 51). Jacobi's first step, unconverged, leaves part of
+/// Propagation's rocking grows from f32 rounding of the collapse (spins of 3e-5 rad/s after a
+/// step; three dice topple, `millimetre_dice_three_propagation_pinned`). The soft step's
+/// tumbling: its single Gauss-Seidel pass leaves the corners' impulses unequal, a velocity
+/// error set by the substep's `g h` (0.041 m/s), not by the size: after the first step the
+/// dice have moved 1e-5 m sideways at 1 mm, 1 cm and 1 m alike, and the upper one spins at
+/// 3.4e-3 rad/s at 1 m (its corners at 1.7 mm/s, 4% of `g h`) and 3.4 rad/s at 1 mm. Jacobi's first step, unconverged, leaves part of
 /// `g dt` (0.16 m/s, 160 dice per second) unresolved and its push-out is capped at the scaled
 /// 3 mm/s.
 #[test]
@@ -332,6 +336,172 @@ fn millimetre_stacks_other_methods() {
     }
     let run = run_dice(SolverMethod::Jacobi, unit, H, &column(3, H), 0.0);
     check(&run, &settled(3, H, slop), 2e-6, 2e-5, "Jacobi, three dice");
+}
+
+/// How close a run of dice came to containment: each die holds a ball of radius `half` (its
+/// inscribed sphere), and no point of another die or of the ground may enter that ball unless
+/// they overlap. So over the run, the smallest distance, m, from a die's centre to another die
+/// (the box, in that die's frame) and the smallest height of a die's centre over the ground:
+/// both `half` for dice that never overlap, whatever their pose; less by the depth of any
+/// overlap. A die inside another has its centre within `half` of it, or inside it (negative).
+fn closest_approach(
+    method: SolverMethod,
+    unit: f32,
+    half: f32,
+    spots: &[Vec3],
+    friction: f32,
+    hz: f64,
+) -> (f32, f32) {
+    let (mut app, dice) = dice_app(method, Some(unit), half, spots, friction);
+    app.insert_resource(Time::<Fixed>::from_hz(hz));
+    let (mut to_die, mut to_ground) = (f32::INFINITY, f32::INFINITY);
+    for _ in 0..(5.0 * hz) as u32 {
+        app.update();
+        for &d in &dice {
+            let c = position(&app, d);
+            to_ground = to_ground.min(c.y);
+            for &other in dice.iter().filter(|&&o| o != d) {
+                let local = rotation(&app, other).inverse() * (c - position(&app, other));
+                let outside = (local.abs() - Vec3::splat(half)).max(Vec3::ZERO);
+                let inside = (local.abs() - Vec3::splat(half)).max_element().min(0.0);
+                to_die = to_die.min(outside.length() + inside);
+            }
+        }
+    }
+    (to_die, to_ground)
+}
+
+/// Issue 9, propagation: stacked dice never end inside each other or the ground. The family:
+/// 1 mm and 1 cm dice (length units 1e-3 and 1e-2), 30, 60 and 120 Hz, two and three dice,
+/// friction 0 and 0.5, 5 s, but for three 1 mm dice (pinned in
+/// `millimetre_dice_three_propagation_pinned`). Answer: a die's centre never comes nearer
+/// than `H` to another die or the ground (see [`closest_approach`]) less what propagation,
+/// which corrects no penetration, lets contacts close: its collapse of an inelastic stack
+/// stops once no contact approaches faster than the velocity tolerance (1e-4 m/s times the
+/// unit), so a contact may close at up to that speed for the whole run, 5e-4 times the unit
+/// in 5 s; twice that allowed (1 um at 1 mm, 10 um at 1 cm, 0.2% of `H`), for the rounding
+/// of the collapse's velocities. Measured: nearest 0.9990 H (three 1 cm dice, 60 Hz: 4.9 um
+/// closed), 0.9992 H at 1 mm (0.37 um).
+///
+/// Before, at 1 mm, 30 and 60 Hz: both dice of the pair ended at 0.5 mm after the first
+/// step, the upper inside the lower. The pass resolves each contact at most once a sweep: the
+/// ground stopped the lower die, the pair's contact left both at half the speed, the lower
+/// die's ground contact approached again and waited for the next sweep, and the upper die's
+/// speculative contact with the ground through the lower die (a 1 mm gap, which the step's
+/// fall `g dt^2`, 2.7 mm at 60 Hz, reaches) was resolved in the same sweep at its time of
+/// impact, 12 ms, as if the lower die were gone: the upper die was placed on the ground. Now
+/// an impact later than one that waits in its cluster of touching bodies waits too.
+#[test]
+fn dice_never_end_inside_each_other_propagation() {
+    for (half, unit) in [(H, 1e-3), (0.005, 1e-2)] {
+        for n in [2, 3] {
+            if n == 3 && half == H {
+                continue;
+            }
+            let allowed = 2.0 * 1e-4 * unit * 5.0;
+            for hz in [30.0, 60.0, 120.0] {
+                for friction in [0.0, 0.5] {
+                    let spots = column(n, half);
+                    let (to_die, to_ground) = closest_approach(
+                        SolverMethod::Propagation,
+                        unit,
+                        half,
+                        &spots,
+                        friction,
+                        hz,
+                    );
+                    let what = format!("{n} dice of {half} m, {hz} Hz, friction {friction}");
+                    assert!(to_die >= half - allowed, "{what}: {to_die} m from a die");
+                    assert!(to_ground >= half - allowed, "{what}: {to_ground} m high");
+                }
+            }
+        }
+    }
+}
+
+/// Pinned: three 1 mm dice stacked under propagation topple and end inside each other and the
+/// ground (as the frictionless column of ten in `methods_resting.rs` topples, propagation's
+/// impacts carry no friction). Measured (closest approach of a centre, as in
+/// `dice_never_end_inside_each_other_propagation`, in `H`): 30 Hz -0.28 to a die, -16.6 to
+/// the ground; 60 Hz -0.52, -0.20; 120 Hz 0.72, 0.9992. The stack stands for a while (the
+/// collapse leaves it at rest each step to the velocity tolerance), but a tilt grows
+/// (1.3-fold a step at 30 Hz from 1e-5 rad/s at 3 s, the lowest die sliding out), and the
+/// toppling dice spin up to 300 rad/s and pass into the ground. At 120 Hz, where no contact
+/// through a die is in the step's reach (`g dt^2` = 0.68 mm), it failed the same way before
+/// the fix of `dice_never_end_inside_each_other_propagation` (0.37 H and 0.52 H deep, by
+/// parry's contact query): not that cause.
+#[test]
+#[ignore = "fails (issue 9): three 1 mm dice under propagation topple and pass into each other; see doc"]
+fn millimetre_dice_three_propagation_pinned() {
+    let mut results = Vec::new();
+    for hz in [30.0, 60.0, 120.0] {
+        let (to_die, to_ground) =
+            closest_approach(SolverMethod::Propagation, 1e-3, H, &column(3, H), 0.0, hz);
+        results.push((hz, to_die, to_ground));
+    }
+    for (hz, to_die, to_ground) in results {
+        assert!(
+            to_die >= H - 1e-6 && to_ground >= H - 1e-6,
+            "{hz} Hz: {to_die} {to_ground}"
+        );
+    }
+}
+
+/// Issue 9, soft step: a soft contact holds its load whatever the push-out cap. A 1 m cube
+/// (1 kg) rests on the ground under the soft step, 60 Hz, 4 substeps, with
+/// `max_push_out_speed` 1 mm/s, below the 2.5 mm/s bias each corner's spring needs to carry
+/// its quarter of the weight (`g / (omega a1)`, `a1 = 2 zeta + h omega`, 30 Hz): it ends
+/// at the soft sink `g / (2 pi 30 Hz)^2` = 0.276 mm below its spawn height, as with the
+/// default cap (`resting_box_iterative_methods_hold_still`); 3% allowed, as there (the
+/// spring settles asymptotically). Measured: 0.2757 mm.
+///
+/// And the 1 mm pair (friction 0.5, unit 1e-3, 60 Hz, 5 s), whose lower die's corners each
+/// carry twice their effective mass's weight (5 mm/s against a cap scaled to 3 mm/s): its
+/// centre never sinks more than Box2D's sink for that load, `2 g / (2 pi 30 Hz)^2` =
+/// 0.552 mm, plus 5% (the dice tumble, pinned in `millimetre_stacks_other_methods`, and a
+/// corner's share of the load varies); measured 0.538 mm. That is more than the die's half
+/// height: under the soft step (Box2D's stiffness, set by each contact's own effective mass,
+/// a contact carrying `k` weights sinks `k` soft sinks) a 1 mm die under another rests with
+/// its centre at the ground's level; the default scales the stiffness with the load.
+///
+/// Before: the soft row capped its bias, `bias_rate s`, at the push-out speed, so a row
+/// whose load asks for more could not hold it at any depth: the cube sank 6.9 mm in 5 s
+/// (about 1.4 mm/s, and kept sinking), and the lower die of the pair 1.04 mm, its whole
+/// height and more. Now the cap bounds the speed the spring drives, which is zero at rest
+/// (`Softness::row_impulse`).
+#[test]
+fn soft_contact_holds_its_load_under_the_push_out_cap() {
+    let mut app = headless_app(60.0);
+    app.insert_resource(SolverConfig {
+        max_push_out_speed: 1e-3,
+        ..SolverConfig::for_method(SolverMethod::SoftStep)
+    });
+    app.insert_resource(SleepConfig {
+        enabled: false,
+        ..default()
+    });
+    let (_, cube) = scenes::resting_box(app.world_mut(), 0.0);
+    let start = position(&app, cube).y;
+    for _ in 0..300 {
+        app.update();
+    }
+    let sink = start - position(&app, cube).y;
+    assert!(
+        (sink - soft_sink()).abs() <= 0.03 * soft_sink(),
+        "sank {sink} m, expected {}",
+        soft_sink()
+    );
+    let (mut app, dice) = dice_app(SolverMethod::SoftStep, Some(1e-3), H, &column(2, H), 0.5);
+    let mut lowest = f32::INFINITY;
+    for _ in 0..300 {
+        app.update();
+        lowest = lowest.min(position(&app, dice[0]).y);
+    }
+    assert!(
+        H - lowest <= 1.05 * 2.0 * soft_sink(),
+        "the lower die sank {} m",
+        H - lowest
+    );
 }
 
 /// An invalid length unit is logged once and the last good one (here the default, 1) is used:

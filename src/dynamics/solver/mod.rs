@@ -105,7 +105,17 @@ pub fn step(
                 bodies,
                 contacts,
                 &singles,
-                &propagation_params(config, config.velocity_tolerance, gravity, true, false, dt),
+                &Propagation {
+                    wait_in_cluster: true,
+                    ..propagation_params(
+                        config,
+                        config.velocity_tolerance,
+                        gravity,
+                        true,
+                        false,
+                        dt,
+                    )
+                },
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -153,5 +163,6 @@ fn propagation_params(
         substeps: config.substeps.max(1),
         max_block_iterations: config.max_block_iterations,
         velocity_tolerance: config.velocity_tolerance,
+        wait_in_cluster: false,
     }
 }

@@ -223,6 +223,42 @@ impl Softness {
     }
 }
 
+impl Softness {
+    /// The soft row's impulse increment, N s, for a penetrating row (separation `s <= 0`, m) of
+    /// effective mass `mass` (kg) at normal velocity `vn` (m/s) with `accumulated` (N s) taken
+    /// so far in the substep (with the warm start): Box2D's
+    /// `-m mass_scale (v_n + bias_rate s) - impulse_scale lambda`, which drives `v_n` to the
+    /// spring's speed `-(bias_rate s + impulse_scale lambda / (mass_scale m))`, with that speed
+    /// capped at `max_push_out` (m/s).
+    ///
+    /// Why the speed and not the bias: at rest the spring's speed is zero, its bias
+    /// `bias_rate s` balanced by the load term, `impulse_scale lambda / (mass_scale m)`, which
+    /// for a row carrying `k` times its effective mass's weight is `k g / (omega a1)` (2.5 mm/s
+    /// per weight at 30 Hz, whatever the length unit). Box2D caps the bias alone, so a row whose
+    /// load asks for a bias beyond the cap cannot hold it at any depth: with the cap scaled to
+    /// 3 mm/s by `PhysicsLengthUnit(1e-3)`, the ground corners of a 1 mm die under another
+    /// (each carrying twice its effective mass's weight, 5 mm/s) let the die sink at about
+    /// 2 mm/s, step after step, its whole height into the ground. Capping the speed instead
+    /// pushes a fresh overlap out no faster than the cap and leaves the spring's holding force
+    /// whole; where the cap does not bind the impulse is Box2D's, bit for bit.
+    pub fn row_impulse(
+        &self,
+        mass: f32,
+        vn: f32,
+        s: f32,
+        accumulated: f32,
+        max_push_out: f32,
+    ) -> f32 {
+        let bias = self.bias_rate * s;
+        let load = self.impulse_scale * accumulated / (self.mass_scale * mass);
+        if bias + load >= -max_push_out {
+            -mass * self.mass_scale * (vn + bias) - self.impulse_scale * accumulated
+        } else {
+            -mass * self.mass_scale * (vn - max_push_out)
+        }
+    }
+}
+
 /// One soft-step sweep (Box2D v3 `b2SolveContact`). With `soft = Some`, penetration is pushed
 /// out by the soft spring at no more than `max_push_out` m/s; with `None` (the relax pass) the
 /// rows are rigid and carry no bias. A speculative gap `s > 0` may always close at `s/h`.
@@ -250,19 +286,14 @@ pub fn soft_sweep(
         if leave_impacts.is_some_and(|t| s > 0.0 && c.normal_velocity(bodies) < -t) {
             continue;
         }
-        let (bias, mass_scale, impulse_scale) = if s > 0.0 {
-            (s * inv_h, 1.0, 0.0)
-        } else if let Some(soft) = soft {
-            (
-                (soft.bias_rate * s).max(-max_push_out),
-                soft.mass_scale,
-                soft.impulse_scale,
-            )
-        } else {
-            (0.0, 1.0, 0.0)
-        };
         let vn = c.normal_velocity(bodies);
-        let impulse = -c.normal_mass * mass_scale * (vn + bias) - impulse_scale * c.normal_impulse;
+        let impulse = if s > 0.0 {
+            -c.normal_mass * (vn + s * inv_h)
+        } else if let Some(soft) = soft {
+            soft.row_impulse(c.normal_mass, vn, s, c.normal_impulse, max_push_out)
+        } else {
+            -c.normal_mass * vn
+        };
         let new = (c.normal_impulse + impulse).max(0.0);
         settling.accept(c, i, vn, new, bodies, &mut largest);
     }
