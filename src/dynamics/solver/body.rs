@@ -388,6 +388,21 @@ pub(crate) fn pair_mut(
     }
 }
 
+/// Kinetic energy of the dynamic bodies, J (summed in f64): the solver tests' conservation
+/// checks.
+#[cfg(test)]
+pub(crate) fn kinetic_energy(bodies: &[SolverBody]) -> f64 {
+    bodies
+        .iter()
+        .filter(|b| b.motion == Motion::Dynamic)
+        .map(|b| {
+            let (v, w) = (b.linear_velocity.as_dvec3(), b.angular_velocity.as_dvec3());
+            let inertia = b.inverse_inertia.as_dmat3().inverse();
+            0.5 * v.length_squared() / b.inverse_mass as f64 + 0.5 * w.dot(inertia * w)
+        })
+        .sum()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

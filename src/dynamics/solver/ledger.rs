@@ -166,20 +166,9 @@ fn root(parent: &mut [u32], i: usize) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::solver::body::kinetic_energy;
     use crate::dynamics::solver::contact::prepare_contacts;
     use bevy::math::{BVec3, Mat3, Quat, Vec3};
-
-    fn kinetic_energy(bodies: &[SolverBody]) -> f64 {
-        bodies
-            .iter()
-            .filter(|b| b.motion == Motion::Dynamic)
-            .map(|b| {
-                let (v, w) = (b.linear_velocity.as_dvec3(), b.angular_velocity.as_dvec3());
-                let inertia = b.inverse_inertia.as_dmat3().inverse();
-                0.5 * v.length_squared() / b.inverse_mass as f64 + 0.5 * w.dot(inertia * w)
-            })
-            .sum()
-    }
 
     /// The works `record_shared` books for impulses applied together sum to the change of
     /// kinetic energy (a conservation law: with e = 1 the account is minus that change). Three

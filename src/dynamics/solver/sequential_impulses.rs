@@ -280,21 +280,9 @@ pub fn sequential_sweep(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::solver::body::kinetic_energy;
     use crate::dynamics::solver::contact::prepare_contacts;
     use bevy::math::{BVec3, Mat3};
-
-    /// Kinetic energy of the dynamic bodies, J (f64 sums).
-    fn kinetic_energy(bodies: &[SolverBody]) -> f64 {
-        bodies
-            .iter()
-            .filter(|b| b.motion == Motion::Dynamic)
-            .map(|b| {
-                let (v, w) = (b.linear_velocity.as_dvec3(), b.angular_velocity.as_dvec3());
-                let inertia = b.inverse_inertia.as_dmat3().inverse();
-                0.5 * v.length_squared() / b.inverse_mass as f64 + 0.5 * w.dot(inertia * w)
-            })
-            .sum()
-    }
 
     /// One bounce of a spinning body on static ground, solved to convergence by
     /// `sequential_sweep` with Newton's target `-e v_n`; with `newton`, the row's energy
