@@ -105,17 +105,7 @@ pub fn step(
                 bodies,
                 contacts,
                 &singles,
-                &Propagation {
-                    wait_in_cluster: true,
-                    ..propagation_params(
-                        config,
-                        config.velocity_tolerance,
-                        gravity,
-                        true,
-                        false,
-                        dt,
-                    )
-                },
+                &propagation_params(config, config.velocity_tolerance, gravity, true, false, dt),
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;
@@ -163,6 +153,6 @@ fn propagation_params(
         substeps: config.substeps.max(1),
         max_block_iterations: config.max_block_iterations,
         velocity_tolerance: config.velocity_tolerance,
-        wait_in_cluster: false,
+        wait_in_cluster: true,
     }
 }
