@@ -4,9 +4,12 @@
 use std::ops::Range;
 
 use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, ParallelSliceMut, TaskPool};
 use parry3d::math::Pose;
+use parry3d::shape::SharedShape;
 
 use crate::collision::ContactPairs;
+use crate::collision::narrow_phase::ContactPair;
 use crate::collision::narrow_phase::{
     ContactImpulse, Meeting, StepMotion, binary_unit, face_normal_toward, time_of_impact,
 };
@@ -38,7 +41,6 @@ pub fn update_narrow_phase(
     mut events: ResMut<StepEvents>,
 ) {
     let state = &mut *state;
-    let config = &state.settings.config;
     let rows = &mut *rows;
     events.ended.clear();
     events.started.clear();
@@ -77,88 +79,70 @@ pub fn update_narrow_phase(
     // `ContactPair::update`); a pair with a shape parry cannot scale keeps metres.
     let unit = binary_unit(state.settings.length_unit);
     let mut unit_shapes = std::mem::take(&mut state.unit_shapes);
-    for (pair_index, (pair, &(ia, ib))) in pairs
+    let scaled: Vec<Option<(SharedShape, SharedShape)>> = if unit == 1.0 {
+        Vec::new()
+    } else {
+        candidates
+            .indices
+            .iter()
+            .map(|&(ia, ib)| {
+                unit_shapes
+                    .get(&state.shapes[ia], unit)
+                    .zip(unit_shapes.get(&state.shapes[ib], unit))
+            })
+            .collect()
+    };
+    // The manifolds of every pair, independently of the others: in parallel on Bevy's compute
+    // task pool, in chunks whose results come back in pair order, so the step is the same on
+    // any number of threads.
+    let state_ref: &PhysicsState = state;
+    let candidates_ref: &CandidatePairs = &candidates;
+    let scaled_ref = &scaled;
+    let geometry: Vec<Geometry> = pairs
+        .pairs_mut()
+        .par_chunk_map_mut(
+            ComputeTaskPool::get_or_init(TaskPool::default),
+            PAIRS_PER_TASK,
+            |chunk, pairs| {
+                pairs
+                    .iter_mut()
+                    .enumerate()
+                    .map(|(k, pair)| {
+                        let pair_index = chunk * PAIRS_PER_TASK + k;
+                        pair_geometry(
+                            state_ref,
+                            candidates_ref,
+                            scaled_ref.get(pair_index).and_then(Option::as_ref),
+                            unit,
+                            pair_index,
+                            pair,
+                        )
+                    })
+                    .collect::<Vec<_>>()
+            },
+        )
+        .into_iter()
+        .flatten()
+        .collect();
+    for (pair_index, ((pair, &(ia, ib)), geometry)) in pairs
         .pairs_mut()
         .iter_mut()
         .zip(&candidates.indices)
+        .zip(geometry)
         .enumerate()
     {
-        pair.detect_only = candidates.detect_only[pair_index];
-        if candidates.dormant[pair_index] {
-            continue;
-        }
-        let margin = config.contact_margin;
-        let reach = state.reach[ia] + state.reach[ib];
-        let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
-        let (shape_a, shape_b) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
-        let scaled = if unit == 1.0 {
-            None
-        } else {
-            unit_shapes
-                .get(&state.shapes[ia], unit)
-                .zip(unit_shapes.get(&state.shapes[ib], unit))
-        };
-        let (unit_a, unit_b, pair_unit) = match &scaled {
-            Some((a, b)) => (a.as_ref(), b.as_ref(), unit),
-            None => (shape_a, shape_b, 1.0),
-        };
-        if candidates.detect_only[pair_index] {
-            // Detected, never solved (a sensor, or no dynamic body): the manifolds at the start
-            // poses, within the margin, for the touching state; no rows. Computed afresh (see
-            // `ContactPair::reset`): such pairs overlap deeply.
-            pair.reset();
-            if !pair.update(pose_a, unit_a, pose_b, unit_b, margin, pair_unit) {
-                pair.manifolds.clear();
+        let impact_time = match geometry {
+            Geometry::None => continue,
+            Geometry::Detected(touching) => {
+                if touching {
+                    rows.detected.push(pair_index as u32);
+                }
                 continue;
             }
-            let touch = state.settings.touch_distance;
-            if pair
-                .world_points(pose_a, pose_b)
-                .any(|(_, _, _, _, dist)| dist <= touch)
-            {
-                rows.detected.push(pair_index as u32);
-            }
-            continue;
-        }
-        // Speculative contacts (a prediction wider than the margin) only for pairs that really
-        // meet within the step: a near miss of fast bodies is a miss (no ghost collision).
-        // Gravity bends a path by at most |g| dt^2 / 2 from the straight line the cast follows.
-        let mut prediction = margin + reach;
-        let mut impact_time = None;
-        if reach > margin {
-            let motion = |i: usize| StepMotion {
-                pose: state.poses[i],
-                local_center: state.local_com[i],
-                linear: state.bodies[i].linear_velocity,
-                angular: state.bodies[i].angular_velocity,
-                spin_reach: state.spin_reach[i],
-            };
-            let bend = 0.5 * state.settings.gravity.0.length() * state.dt * state.dt;
-            // The start pose's contact geometry (anchors turned to first order) holds for small
-            // turns; past a quarter radian in the step (14 degrees: the first-order rotation of
-            // a point is then 1% off in length, 12% off in direction at a full radian), and
-            // where the turn carries a point beyond the margin, the contact is generated at the
-            // time of impact instead.
-            let turns_far = |i: usize| {
-                state.spin_reach[i] > margin
-                    && state.bodies[i].angular_velocity.length() * state.dt > 0.25
-            };
-            match time_of_impact(
-                shape_a,
-                &motion(ia),
-                shape_b,
-                &motion(ib),
-                state.dt,
-                bend,
-                margin,
-            ) {
-                Meeting::Miss => prediction = margin,
-                Meeting::At(t) if t > 0.0 && (turns_far(ia) || turns_far(ib)) => {
-                    impact_time = Some((t, motion(ia), motion(ib)));
-                }
-                Meeting::At(_) | Meeting::Unknown => {}
-            }
-        }
+            Geometry::Impact(t, motion_a, motion_b) => Some((t, motion_a, motion_b)),
+            Geometry::Start => None,
+        };
+        let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
         // Each coefficient by the pair's rule (`Max` unless a body asks for another).
         let (rules_a, rules_b) = (state.combine[ia], state.combine[ib]);
         let restitution = CoefficientCombine::of_pair(rules_a.restitution, rules_b.restitution)
@@ -173,10 +157,6 @@ pub fn update_narrow_phase(
             // rotation), with its points mapped back to where they are at the start and a
             // separation that the approach velocity there closes exactly at the impact time.
             let (toi_a, toi_b) = (motion_a.pose_at(t), motion_b.pose_at(t));
-            if !pair.update(&toi_a, unit_a, &toi_b, unit_b, margin, pair_unit) {
-                pair.manifolds.clear();
-                continue;
-            }
             let (a, b) = (&state.bodies[ia], &state.bodies[ib]);
             // The point is moved back with the body that turns farther, so that its lever arm
             // is the one at impact (`p - x(t)`): the impulse then turns it as the impact does.
@@ -228,10 +208,6 @@ pub fn update_narrow_phase(
             close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
             continue;
         }
-        if !pair.update(pose_a, unit_a, pose_b, unit_b, prediction, pair_unit) {
-            pair.manifolds.clear();
-            continue;
-        }
         let mut face = None;
         for (m, k, point, normal, dist) in pair.world_points(pose_a, pose_b) {
             let normal = match face {
@@ -260,6 +236,114 @@ pub fn update_narrow_phase(
     }
     unit_shapes.prune();
     state.unit_shapes = unit_shapes;
+}
+
+/// Candidate pairs per task of the narrow phase's parallel manifold pass.
+const PAIRS_PER_TASK: usize = 64;
+
+/// What the manifold pass found for one candidate pair (see [`pair_geometry`]).
+enum Geometry {
+    /// Dormant, or no contact within the prediction: no rows.
+    None,
+    /// A detect-only pair (a sensor, or no dynamic body): touching or not; no rows.
+    Detected(bool),
+    /// The manifolds at the start poses.
+    Start,
+    /// A fast-turning body: the manifolds at the time-of-impact poses, `t` s into the step,
+    /// with both bodies' motions.
+    Impact(f32, StepMotion, StepMotion),
+}
+
+/// Updates the manifolds of candidate pair `pair_index` (`pair`) for this step, from the
+/// bodies' shapes (scaled to the length unit `unit` where `scaled` holds them), poses and
+/// motion, and says which poses they are at. Reads nothing another pair writes: the pairs are
+/// updated in parallel.
+fn pair_geometry(
+    state: &PhysicsState,
+    candidates: &CandidatePairs,
+    scaled: Option<&(SharedShape, SharedShape)>,
+    unit: f32,
+    pair_index: usize,
+    pair: &mut ContactPair,
+) -> Geometry {
+    let config = &state.settings.config;
+    let (ia, ib) = candidates.indices[pair_index];
+    pair.detect_only = candidates.detect_only[pair_index];
+    if candidates.dormant[pair_index] {
+        return Geometry::None;
+    }
+    let margin = config.contact_margin;
+    let reach = state.reach[ia] + state.reach[ib];
+    let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
+    let (shape_a, shape_b) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
+    let (unit_a, unit_b, pair_unit) = match scaled {
+        Some((a, b)) => (a.as_ref(), b.as_ref(), unit),
+        None => (shape_a, shape_b, 1.0),
+    };
+    if candidates.detect_only[pair_index] {
+        // Detected, never solved (a sensor, or no dynamic body): the manifolds at the start
+        // poses, within the margin, for the touching state; no rows. Computed afresh (see
+        // `ContactPair::reset`): such pairs overlap deeply.
+        pair.reset();
+        if !pair.update(pose_a, unit_a, pose_b, unit_b, margin, pair_unit) {
+            pair.manifolds.clear();
+            return Geometry::None;
+        }
+        let touch = state.settings.touch_distance;
+        return Geometry::Detected(
+            pair.world_points(pose_a, pose_b)
+                .any(|(_, _, _, _, dist)| dist <= touch),
+        );
+    }
+    // Speculative contacts (a prediction wider than the margin) only for pairs that really
+    // meet within the step: a near miss of fast bodies is a miss (no ghost collision).
+    // Gravity bends a path by at most |g| dt^2 / 2 from the straight line the cast follows.
+    let mut prediction = margin + reach;
+    if reach > margin {
+        let motion = |i: usize| StepMotion {
+            pose: state.poses[i],
+            local_center: state.local_com[i],
+            linear: state.bodies[i].linear_velocity,
+            angular: state.bodies[i].angular_velocity,
+            spin_reach: state.spin_reach[i],
+        };
+        let bend = 0.5 * state.settings.gravity.0.length() * state.dt * state.dt;
+        // The start pose's contact geometry (anchors turned to first order) holds for small
+        // turns; past a quarter radian in the step (14 degrees: the first-order rotation of
+        // a point is then 1% off in length, 12% off in direction at a full radian), and
+        // where the turn carries a point beyond the margin, the contact is generated at the
+        // time of impact instead.
+        let turns_far = |i: usize| {
+            state.spin_reach[i] > margin
+                && state.bodies[i].angular_velocity.length() * state.dt > 0.25
+        };
+        match time_of_impact(
+            shape_a,
+            &motion(ia),
+            shape_b,
+            &motion(ib),
+            state.dt,
+            bend,
+            margin,
+        ) {
+            Meeting::Miss => prediction = margin,
+            Meeting::At(t) if t > 0.0 && (turns_far(ia) || turns_far(ib)) => {
+                let (motion_a, motion_b) = (motion(ia), motion(ib));
+                let (toi_a, toi_b) = (motion_a.pose_at(t), motion_b.pose_at(t));
+                if !pair.update(&toi_a, unit_a, &toi_b, unit_b, margin, pair_unit) {
+                    pair.manifolds.clear();
+                    return Geometry::None;
+                }
+                return Geometry::Impact(t, motion_a, motion_b);
+            }
+            Meeting::At(_) | Meeting::Unknown => {}
+        }
+    }
+    if !pair.update(pose_a, unit_a, pose_b, unit_b, prediction, pair_unit) {
+        pair.manifolds.clear();
+        return Geometry::None;
+    }
+    Geometry::Start
 }
 
 /// Largest angle, rad, between a manifold's normal and a face of its lighter body for that face

@@ -1,0 +1,94 @@
+//! Same inputs give bit-identical results whatever the number of threads: the narrow phase
+//! computes its manifolds on Bevy's compute task pool (feature `parallel`, on by default), and
+//! its results must not depend on how the pairs were split between threads.
+//!
+//! Bevy's task pools are process-wide and created once, so each thread count runs in a child
+//! process: this test binary again, running the ignored `threaded_pour` with
+//! `IMPACT3D_THREADS` set, which prints a hash of every body's pose.
+
+use std::hash::{Hash, Hasher};
+use std::process::Command;
+
+use bevy::app::{TaskPoolOptions, TaskPoolPlugin};
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use impact3d::prelude::*;
+use impact3d::scenes::{self, Pour, PourBodies};
+
+/// Runs a 300-body mixed pour with friction (spheres, boxes, capsules, hulls; many contact
+/// pairs a step) for 120 steps at 60 Hz, sleeping off, on a task pool of `threads` threads,
+/// and hashes every body's position and rotation bits.
+fn pour_hash(threads: usize) -> u64 {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins.set(TaskPoolPlugin {
+            task_pool_options: TaskPoolOptions::with_num_threads(threads),
+        }),
+        PhysicsPlugins::default(),
+    ))
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
+    .insert_resource(SleepConfig {
+        enabled: false,
+        ..default()
+    });
+    app.update();
+    let spawned = scenes::pour_into(
+        app.world_mut(),
+        &Pour::walled_box(300, PourBodies::Mixed, 1.0, 0.5),
+    );
+    scenes::run_steps(&mut app, 120);
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    for &e in &spawned.bodies {
+        let t = app.world().get::<Transform>(e).unwrap();
+        for x in t
+            .translation
+            .to_array()
+            .into_iter()
+            .chain(t.rotation.to_array())
+        {
+            x.to_bits().hash(&mut hasher);
+        }
+    }
+    hasher.finish()
+}
+
+/// The child process's part: with `IMPACT3D_THREADS=n`, prints `HASH <hash>` of the pour on
+/// `n` threads.
+#[test]
+#[ignore = "run by same_results_on_any_number_of_threads in a child process"]
+fn threaded_pour() {
+    if let Some(n) = std::env::var("IMPACT3D_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
+        println!("HASH {:016x}", pour_hash(n));
+    }
+}
+
+/// The pour's pose hash is the same on task pools of 1, 2 and 4 threads (each in its own
+/// process) and in this process: exact equality, the promise is bit-identical results.
+#[test]
+fn same_results_on_any_number_of_threads() {
+    let exe = std::env::current_exe().unwrap();
+    let hashes: Vec<String> = [1, 2, 4]
+        .iter()
+        .map(|n| {
+            let out = Command::new(&exe)
+                .args(["--exact", "threaded_pour", "--ignored", "--nocapture"])
+                .env("IMPACT3D_THREADS", n.to_string())
+                .output()
+                .unwrap();
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            stdout
+                .lines()
+                .find_map(|l| l.strip_prefix("HASH ").map(str::to_owned))
+                .unwrap_or_else(|| panic!("{n} threads: no hash in {stdout}"))
+        })
+        .collect();
+    let here = format!("{:016x}", pour_hash(2));
+    assert!(
+        hashes.iter().all(|h| *h == here),
+        "1, 2, 4 threads: {hashes:?}; this process: {here}"
+    );
+}
