@@ -512,6 +512,8 @@ fn gather_body(
     // The world pose: the `Transform` of a top-level entity, read as it is.
     let world = hierarchy.world_pose(entity).unwrap_or(*item.transform);
     let disturbed = hierarchy.is_disturbed(entity);
+    let reshaped = hierarchy.is_reshaped(entity);
+    let was_built = !hierarchy.built.is_empty() && hierarchy.built.contains_key(&entity);
     let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
     let gravity = state.settings.gravity.0;
     // A body with child colliders or a scale has its shape built (and kept until it changes);
@@ -530,7 +532,12 @@ fn gather_body(
         _ => None,
     };
     let check = built
-        .and_then(|_| validate(item, kind, &world, geometry))
+        .and_then(|_| {
+            // Built in an earlier step and no longer (its scale went back to 1, or it lost its
+            // child colliders): its mass properties are its own collider's again.
+            let unbuilt = geometry.is_none() && was_built;
+            validate(item, kind, &world, geometry, reshaped || unbuilt)
+        })
         .and_then(|()| match kind {
             RigidBody::Dynamic => body_motion(item, world.rotation, gravity),
             _ => Ok(None),
@@ -768,12 +775,14 @@ fn gather_body(
 
 /// Checks one body's input (at its world pose `t`) and refreshes its mass properties when
 /// their inputs changed. `geometry`, for a body whose shape is built (child colliders or a
-/// scale; already checked by [`build_body`]), is that and whether it changed in this step.
+/// scale; already checked by [`build_body`]), is that and whether it changed in this step;
+/// `reshaped`: the body's child colliders changed (its mass properties are recomputed).
 fn validate(
     item: &mut BodyDataItem,
     kind: RigidBody,
     t: &Transform,
     geometry: Option<(Option<&BuiltBody>, bool)>,
+    reshaped: bool,
 ) -> Result<(), String> {
     if geometry.is_none()
         && let Some(error) = item.collider.as_ref().and_then(|c| c.error())
@@ -811,6 +820,7 @@ fn validate(
             .is_some_and(|c| c.is_changed() && !c.is_added());
         let changed = written
             || geometry.is_some_and(|(_, changed)| changed)
+            || reshaped
             || item.computed.as_ref().is_some_and(|c| c.is_added())
             || item.collider.as_ref().is_some_and(|c| c.is_changed())
             || item.body.as_ref().is_some_and(|b| b.is_changed())
@@ -1013,8 +1023,13 @@ fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
 #[derive(Default)]
 pub(super) struct HierarchyState {
     /// The colliders that are parts of another entity's body in this step, `(body, part)`,
-    /// sorted by body, then by collider.
+    /// sorted by body, then in the order of the body's descendants (depth first, each entity's
+    /// `Children` in their order: the order of `Collider::compound`'s parts when they were
+    /// spawned in that order).
     parts: Vec<(Entity, ChildPart)>,
+    /// Scratch: the depth-first position of each descendant of the bodies with parts, sorted
+    /// by entity.
+    order: Vec<(Entity, u32)>,
     /// The entities of those colliders, sorted: they are not bodies of their own.
     attached: Vec<Entity>,
     /// The world pose of each gathered entity with a parent, sorted by entity.
@@ -1025,6 +1040,9 @@ pub(super) struct HierarchyState {
     /// The bodies whose ancestors or child colliders changed since the last step, sorted: read
     /// (and woken) even when asleep.
     disturbed: Vec<Entity>,
+    /// The bodies whose child colliders changed since the last step (were added, removed,
+    /// moved, or changed shape, density or mass), sorted: their mass properties are recomputed.
+    reshaped: Vec<Entity>,
     /// The shape and parts built for each body with child colliders or a scale.
     built: EntityHashMap<BuiltBody>,
     /// The entities a warning has been logged for (a scale their shape cannot take, a child
@@ -1055,6 +1073,10 @@ impl HierarchyState {
         !self.disturbed.is_empty() && self.disturbed.binary_search(&entity).is_ok()
     }
 
+    fn is_reshaped(&self, entity: Entity) -> bool {
+        !self.reshaped.is_empty() && self.reshaped.binary_search(&entity).is_ok()
+    }
+
     /// The world pose of the parent of body `entity`, if it has one.
     pub(super) fn parent_frame(&self, entity: Entity) -> Option<Transform> {
         if self.parent_frames.is_empty() {
@@ -1077,9 +1099,9 @@ impl HierarchyState {
         }
     }
 
-    /// Drops the shapes built for bodies that no longer need one (no child colliders, no
-    /// scale): marked stale by [`build_body`] not having visited them in this step is not
-    /// enough (a sleeping body sits steps out), so only those whose entry says so go.
+    /// Drops the shapes built for bodies that neither have child colliders nor were built in
+    /// this step (no longer scaled, or asleep and scaled: rebuilt, to the same shape, when
+    /// read again).
     fn prune(&mut self) {
         self.built.retain(|_, b| b.needed);
     }
@@ -1197,6 +1219,8 @@ pub struct HierarchyData<'w, 's> {
     >,
     /// The colliders marked as parts of a body.
     marked: Query<'w, 's, Entity, With<ColliderOf>>,
+    /// Each entity's children, in order: a body's parts are ordered as its descendants are.
+    children: Query<'w, 's, &'static Children>,
 }
 
 /// The world transform of `entity` (its `Transform` composed with its ancestors', as Bevy's
@@ -1253,6 +1277,7 @@ pub(super) fn resolve_hierarchy(
     hs.world.clear();
     hs.parent_frames.clear();
     hs.disturbed.clear();
+    hs.reshaped.clear();
     for (entity, child_of, is_body, collider) in h.parented.iter() {
         let parent = child_of.parent();
         if is_body {
@@ -1350,8 +1375,33 @@ pub(super) fn resolve_hierarchy(
             commands.entity(entity).remove::<ColliderOf>();
         }
     }
+    // The parts of each body in the order of its descendants.
+    hs.order.clear();
+    let mut bodies: Vec<Entity> = hs.parts.iter().map(|(b, _)| *b).collect();
+    bodies.sort_unstable();
+    bodies.dedup();
+    let mut stack = Vec::new();
+    for body in bodies {
+        let mut n = 0u32;
+        stack.clear();
+        stack.push(body);
+        while let Some(e) = stack.pop() {
+            hs.order.push((e, n));
+            n += 1;
+            if let Ok(children) = h.children.get(e) {
+                stack.extend(children.iter().rev());
+            }
+        }
+    }
+    hs.order.sort_unstable_by_key(|(e, _)| *e);
+    let order = &hs.order;
+    let position = |e: Entity| {
+        order
+            .binary_search_by_key(&e, |(k, _)| *k)
+            .map_or(u32::MAX, |i| order[i].1)
+    };
     hs.parts
-        .sort_unstable_by_key(|(body, part)| (*body, part.collider));
+        .sort_by_cached_key(|(body, part)| (*body, position(part.collider), part.collider));
     hs.world.sort_unstable_by_key(|(e, _)| *e);
     hs.parent_frames.sort_unstable_by_key(|(e, _)| *e);
     // Bodies whose parts changed, and those that lost all of them.
@@ -1363,7 +1413,8 @@ pub(super) fn resolve_hierarchy(
         let body = hs.parts[i].0;
         let n = hs.parts[i..].partition_point(|(b, _)| *b == body);
         let parts = &hs.parts[i..i + n];
-        let same = hs.built.get(&body).is_some_and(|built| {
+        let same = hs.built.get_mut(&body).is_some_and(|built| {
+            built.needed = true;
             built.children.len() == n
                 && built
                     .children
@@ -1372,15 +1423,17 @@ pub(super) fn resolve_hierarchy(
                     .all(|(a, (_, b))| a.same(b))
         });
         if !same {
-            hs.disturbed.push(body);
+            hs.reshaped.push(body);
         }
         i += n;
     }
     for (&body, built) in hs.built.iter() {
-        if !built.children.is_empty() && hs.parts_of(body).is_empty() {
-            hs.disturbed.push(body);
+        if !built.children.is_empty() && parts_in(&hs.parts, body).is_empty() {
+            hs.reshaped.push(body);
         }
     }
+    hs.reshaped.sort_unstable();
+    hs.disturbed.extend_from_slice(&hs.reshaped);
     hs.disturbed.sort_unstable();
     hs.disturbed.dedup();
 }
