@@ -139,7 +139,8 @@ fn child_boxes_sum_by_the_parallel_axis_theorem() {
 
 /// A table of child colliders (a top and two legs reaching 1 m below the body's origin)
 /// dropped from 0.3 m above its resting height rests with its origin at 1 m (the legs' feet
-/// on the ground), and steps bit for bit as the same table built as one `Collider::compound`.
+/// on the ground), steps bit for bit as the same table built as one `Collider::compound`, and
+/// falls asleep.
 #[test]
 fn child_colliders_rest_on_their_lowest_part_as_the_compound_does() {
     let parts = [
@@ -192,6 +193,18 @@ fn child_colliders_rest_on_their_lowest_part_as_the_compound_does() {
         children, compound,
         "child colliders and the compound step differently"
     );
+    // At rest it falls asleep (0.5 s below the sleep threshold) and stays asleep: its parts,
+    // unchanged, do not wake it.
+    let mut app = app;
+    run_steps(&mut app, 60);
+    assert!(app.world().get::<Sleeping>(body).is_some(), "it sleeps");
+    let still = *app.world().get::<Transform>(body).unwrap();
+    run_steps(&mut app, 30);
+    assert!(
+        app.world().get::<Sleeping>(body).is_some(),
+        "it stays asleep"
+    );
+    assert_eq!(*app.world().get::<Transform>(body).unwrap(), still);
 }
 
 /// A dumbbell (two child spheres of radius 0.2 m, 1 m apart along x, on a body without a

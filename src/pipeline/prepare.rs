@@ -152,6 +152,14 @@ pub struct StepSettings<'w> {
     clock: Res<'w, PhysicsTime>,
 }
 
+/// The awake bodies a step gathers: any entity with a collider or a body (a body may have its
+/// colliders on its children only), not disabled.
+type AwakeBodies = (
+    Without<Sleeping>,
+    Without<RigidBodyDisabled>,
+    Or<(With<Collider>, With<RigidBody>)>,
+);
+
 /// The sleeping bodies: the entities of those disturbed since the last step, and every
 /// sleeping body with the components the prepare stage reads.
 type SleepingBodies<'w, 's> = ParamSet<
@@ -256,19 +264,13 @@ impl MotionRemovals<'_, '_> {
 /// on changed or was removed, or it was just put to sleep); the others keep their record in
 /// the [`SleepingSet`](crate::dynamics::sleep::SleepingSet) and sit out the step, unless the
 /// broad phase finds an awake body's box over theirs or their island wakes.
+#[allow(clippy::too_many_arguments)]
 pub fn prepare_bodies(
     mut commands: Commands,
     ticks: SystemChangeTick,
     settings: StepSettings,
     mut state: ResMut<PhysicsState>,
-    mut awake: Query<
-        BodyData,
-        (
-            Without<Sleeping>,
-            Without<RigidBodyDisabled>,
-            Or<(With<Collider>, With<RigidBody>)>,
-        ),
-    >,
+    mut awake: Query<BodyData, AwakeBodies>,
     mut sleeping: SleepingBodies,
     mut removals: BodyRemovals,
     hierarchy: HierarchyData,
@@ -1180,43 +1182,11 @@ struct BuiltBody {
 #[derive(SystemParam)]
 pub struct HierarchyData<'w, 's> {
     /// Every entity's transform and parent, to walk up the tree.
-    nodes: Query<
-        'w,
-        's,
-        (
-            Option<Ref<'static, Transform>>,
-            Option<Ref<'static, ChildOf>>,
-            Option<&'static RigidBody>,
-            Option<&'static Collider>,
-        ),
-    >,
+    nodes: Query<'w, 's, HierarchyNode>,
     /// The entities with a parent that a step may gather: bodies and colliders.
-    parented: Query<
-        'w,
-        's,
-        (
-            Entity,
-            &'static ChildOf,
-            Has<RigidBody>,
-            Option<&'static Collider>,
-        ),
-        (
-            Or<(With<RigidBody>, With<Collider>)>,
-            Without<RigidBodyDisabled>,
-        ),
-    >,
+    parented: Query<'w, 's, ParentedEntity, ParentedFilter>,
     /// What a child collider adds to its body.
-    info: Query<
-        'w,
-        's,
-        (
-            Option<&'static Density>,
-            Option<&'static Mass>,
-            Option<&'static Name>,
-            Has<ColliderDisabled>,
-            Option<&'static ColliderOf>,
-        ),
-    >,
+    info: Query<'w, 's, PartInfo>,
     /// The colliders marked as parts of a body.
     marked: Query<'w, 's, Entity, With<ColliderOf>>,
     /// Each entity's children, in order: a body's parts are ordered as its descendants are.
@@ -1252,6 +1222,31 @@ fn world_of(nodes: &Query<HierarchyNode>, entity: Entity) -> (Transform, bool) {
     }
     (world.unwrap_or_default(), changed)
 }
+
+/// An entity with a parent that a step may gather: its parent, whether it is a body, its
+/// collider.
+type ParentedEntity = (
+    Entity,
+    &'static ChildOf,
+    Has<RigidBody>,
+    Option<&'static Collider>,
+);
+
+/// Bodies and colliders, not disabled.
+type ParentedFilter = (
+    Or<(With<RigidBody>, With<Collider>)>,
+    Without<RigidBodyDisabled>,
+);
+
+/// What a child collider adds to its body: its density, mass, name, whether it is disabled, and
+/// the body it was marked a part of.
+type PartInfo = (
+    Option<&'static Density>,
+    Option<&'static Mass>,
+    Option<&'static Name>,
+    Has<ColliderDisabled>,
+    Option<&'static ColliderOf>,
+);
 
 /// The item [`HierarchyData::nodes`] reads.
 type HierarchyNode = (
