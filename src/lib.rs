@@ -25,8 +25,8 @@ pub mod prelude {
     pub use crate::collision::{
         Collider, ColliderConstructor, ColliderConstructorHierarchy,
         ColliderConstructorHierarchyConfig, ColliderConstructorHierarchyReady,
-        ColliderConstructorReady, ColliderDisabled, CollidingEntities, CollisionEventsEnabled,
-        CollisionLayers, LayerMask, PhysicsLayer, Sensor,
+        ColliderConstructorReady, ColliderDisabled, ColliderOf, CollidingEntities,
+        CollisionEventsEnabled, CollisionLayers, LayerMask, PhysicsLayer, Sensor,
     };
     #[cfg(feature = "debug")]
     pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};

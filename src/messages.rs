@@ -57,9 +57,11 @@ pub struct CollisionEnded(pub Entity, pub Entity);
 /// ```
 ///
 /// Pairs of every kind are reported, sensors and kinematic or static bodies included (see
-/// [`crate::collision::sensor`]). The collider is on its body's entity in impact3d, so
-/// `body1 == Some(collider1)` and `body2 == Some(collider2)`; the fields are avian's, where a
-/// collider can sit on a child of its body.
+/// [`crate::collision::sensor`]). A body's colliders, its own and those on its descendants
+/// (see [`ColliderOf`](crate::collision::ColliderOf)), are one compound shape in the step, so
+/// events name the body: `collider1` is the body's entity and `body1 == Some(collider1)`, and
+/// likewise for `collider2` (avian3d names the child collider in `collider1`; here the step
+/// cannot tell which part touched).
 #[derive(EntityEvent, Message, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CollisionStart {
     /// The collider that started touching `collider2`; the event's target when observed.
@@ -67,9 +69,9 @@ pub struct CollisionStart {
     pub collider1: Entity,
     /// The other collider.
     pub collider2: Entity,
-    /// The body of `collider1` (itself).
+    /// The body of `collider1` (itself: colliders are reported as their body).
     pub body1: Option<Entity>,
-    /// The body of `collider2` (itself).
+    /// The body of `collider2` (itself: colliders are reported as their body).
     pub body2: Option<Entity>,
 }
 
@@ -83,9 +85,9 @@ pub struct CollisionEnd {
     pub collider1: Entity,
     /// The other collider.
     pub collider2: Entity,
-    /// The body of `collider1` (itself).
+    /// The body of `collider1` (itself: colliders are reported as their body).
     pub body1: Option<Entity>,
-    /// The body of `collider2` (itself).
+    /// The body of `collider2` (itself: colliders are reported as their body).
     pub body2: Option<Entity>,
 }
 

@@ -15,10 +15,14 @@ use crate::dynamics::validation::{MAX_LENGTH, within};
 #[reflect(Component, Debug, Default, PartialEq)]
 pub struct ColliderDisabled;
 
-/// The collision shape of a body, placed at the entity's `Transform` (bodies are top-level
-/// entities; scale is ignored; a `Transform` is required, so a collider spawned without one
-/// gets the identity). Mass and inertia come from its volume times
-/// [`Density`](crate::dynamics::Density) unless [`Mass`](crate::dynamics::Mass) overrides them.
+/// The collision shape of a body, placed at the entity's world pose and scaled by its world
+/// scale (a `Transform` is required, so a collider spawned without one gets the identity). On
+/// an entity with a [`RigidBody`](crate::dynamics::RigidBody) it is that body's; on a
+/// descendant of one (through Bevy's `ChildOf`) without a `RigidBody` of its own it is a part
+/// of the nearest such ancestor, which then is a compound body of all its colliders (see
+/// [`ColliderOf`]); with no `RigidBody` on it or above it, it is a static collider. Mass and
+/// inertia come from its (scaled) volume times [`Density`](crate::dynamics::Density) unless
+/// [`Mass`](crate::dynamics::Mass) overrides them.
 ///
 /// Constructors that cannot fail in their signature (`sphere`, `cuboid`, `capsule`, `cylinder`,
 /// `cone`, `round_cuboid`, `compound`, `trimesh`, `convex_decomposition`, `heightfield`,
@@ -333,10 +337,7 @@ impl Collider {
     /// True for shapes without a bounded volume (half-space, trimesh, heightfield): only static
     /// or kinematic bodies may use them.
     pub fn is_unbounded_or_hollow(&self) -> bool {
-        matches!(
-            self.shape.shape_type(),
-            ShapeType::HalfSpace | ShapeType::TriMesh | ShapeType::HeightField
-        )
+        is_unbounded_or_hollow(self.shape.as_ref())
     }
 
     /// Mass, centre of mass and inertia of the collider at `density` (kg/m^3): parry's, except
@@ -351,6 +352,232 @@ impl Collider {
     pub fn is_sphere(&self) -> bool {
         self.shape.shape_type() == ShapeType::Ball
     }
+}
+
+/// The body a collider on a descendant entity belongs to (avian3d's name): set by the plugin
+/// each step on every entity with a [`Collider`] and no
+/// [`RigidBody`](crate::dynamics::RigidBody) whose nearest ancestor with a `RigidBody` (through
+/// `ChildOf`) is `body`, and removed when it no longer has one. Read-only: the hierarchy decides,
+/// a value written here is replaced. The body's own collider (on the body's entity) has none.
+///
+/// Such a collider is a part of its body: its shape is placed at its pose relative to the body
+/// (the `Transform`s in between, the body's own scale included) and scaled by its scale
+/// relative to the body's frame; the body's mass, centre of mass and inertia are the sum of its
+/// colliders' (see [`ComputedMass`](crate::dynamics::ComputedMass)). Its contacts, impacts and
+/// collision events are its body's, reported with the body's entity. The body's
+/// `Restitution`, `Friction`, `CollisionLayers`, `Sensor` and `CollisionEventsEnabled` apply to
+/// all its colliders; those components on a child collider are not read. A child collider with
+/// [`ColliderDisabled`] is left out of its body (no shape, no mass).
+///
+/// A triangle mesh, heightfield or half-space cannot be a part of a compound shape: on a child
+/// entity it stays a static collider at its world pose (a warning names it once if its body is
+/// not static), as does any child collider of a body whose own collider is one of these.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct ColliderOf {
+    /// The entity of the [`RigidBody`](crate::dynamics::RigidBody) this collider is part of.
+    pub body: Entity,
+}
+
+/// How [`scaled_shape`] scaled a shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scaling {
+    /// Exactly as asked.
+    Exact,
+    /// The shape cannot take the asked non-uniform scale (a sphere, capsule, rounded box; a
+    /// cylinder or cone scaled differently along its two radial axes; a part of a compound
+    /// turned against the scale's axes): the nearest it can take was used.
+    Nearest,
+}
+
+/// `shape` scaled by `scale` (each component finite and > 0) along its local axes, and whether
+/// that was exact. Cuboids, convex hulls, triangle meshes, heightfields and half-spaces take any
+/// scale exactly (a half-space's normal turns as the scaled plane does); cylinders and cones a
+/// scale whose x and z are equal (their radius by x, their height by y). A shape that cannot take
+/// the scale gets the nearest uniform one, the geometric mean `(sx sy sz)^(1/3)`, which keeps
+/// its volume (a cylinder or cone keeps its height scale and takes `(sx sz)^(1/2)` for its
+/// radius, which keeps its volume too). A compound scales its parts' positions exactly and
+/// each part along its own axes: exactly when the part's axes are the scale's (up to sign and
+/// order), else by the lengths the scale gives its axes. `Err` names a shape parry cannot scale
+/// (a hull degenerate after scaling).
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::collision::collider::{Scaling, scaled_shape};
+/// use impact3d::prelude::*;
+///
+/// let (box2, how) = scaled_shape(Collider::cuboid(0.5, 0.5, 0.5).shape(), Vec3::new(2.0, 1.0, 1.0)).unwrap();
+/// assert_eq!(box2.as_cuboid().unwrap().half_extents, Vec3::new(1.0, 0.5, 0.5));
+/// assert_eq!(how, Scaling::Exact);
+/// let (ball, how) = scaled_shape(Collider::sphere(1.0).shape(), Vec3::new(8.0, 1.0, 1.0)).unwrap();
+/// assert_eq!(ball.as_ball().unwrap().radius, 2.0); // (8 x 1 x 1)^(1/3)
+/// assert_eq!(how, Scaling::Nearest);
+/// ```
+pub fn scaled_shape(shape: &SharedShape, scale: Vec3) -> Result<(SharedShape, Scaling), String> {
+    if scale == Vec3::ONE {
+        return Ok((shape.clone(), Scaling::Exact));
+    }
+    let mut how = Scaling::Exact;
+    let scaled = scale_part(shape.as_ref(), scale, &mut how)?;
+    Ok((scaled, how))
+}
+
+/// [`scaled_shape`] for one shape, recording in `how` when it was not exact.
+fn scale_part(shape: &dyn Shape, s: Vec3, how: &mut Scaling) -> Result<SharedShape, String> {
+    use parry3d::shape::{Capsule, Cone, Cuboid, Cylinder, RoundShape};
+    let uniform = s.x == s.y && s.y == s.z;
+    let mut nearest = || {
+        if !uniform {
+            *how = Scaling::Nearest;
+        }
+        if uniform {
+            s.x
+        } else {
+            (s.x * s.y * s.z).cbrt()
+        }
+    };
+    let degenerate = || format!("a {:?} scaled by {s} is degenerate", shape.shape_type());
+    Ok(if let Some(ball) = shape.as_ball() {
+        SharedShape::ball(ball.radius * nearest())
+    } else if let Some(cuboid) = shape.as_cuboid() {
+        SharedShape::new(Cuboid::new(cuboid.half_extents * s))
+    } else if let Some(round) = shape.as_round_cuboid() {
+        let u = nearest();
+        SharedShape::new(RoundShape {
+            inner_shape: Cuboid::new(round.inner_shape.half_extents * u),
+            border_radius: round.border_radius * u,
+        })
+    } else if let Some(capsule) = shape.as_capsule() {
+        let u = nearest();
+        SharedShape::new(Capsule::new(
+            capsule.segment.a * u,
+            capsule.segment.b * u,
+            capsule.radius * u,
+        ))
+    } else if let Some(cylinder) = shape.as_cylinder() {
+        let radial = radial_scale(s, how);
+        SharedShape::new(Cylinder::new(
+            cylinder.half_height * s.y,
+            cylinder.radius * radial,
+        ))
+    } else if let Some(cone) = shape.as_cone() {
+        let radial = radial_scale(s, how);
+        SharedShape::new(Cone::new(cone.half_height * s.y, cone.radius * radial))
+    } else if let Some(hull) = shape.as_convex_polyhedron() {
+        SharedShape::new(hull.clone().scaled(s).ok_or_else(degenerate)?)
+    } else if let Some(mesh) = shape.as_trimesh() {
+        SharedShape::new(mesh.clone().scaled(s))
+    } else if let Some(field) = shape.as_heightfield() {
+        SharedShape::new(field.clone().scaled(s))
+    } else if let Some(half) = shape.as_halfspace() {
+        SharedShape::new(half.scaled(s).ok_or_else(degenerate)?)
+    } else if let Some(compound) = shape.as_compound() {
+        let mut parts = Vec::with_capacity(compound.shapes().len());
+        for (pose, part) in compound.shapes() {
+            let local = part_scale(pose.rotation, s, how);
+            let placed = Pose::from_parts(pose.translation * s, pose.rotation);
+            parts.push((placed, scale_part(part.as_ref(), local, how)?));
+        }
+        SharedShape::compound(parts)
+    } else {
+        return Err(format!("a {:?} cannot be scaled here", shape.shape_type()));
+    })
+}
+
+/// The radius scale of a cylinder or cone (its axis along y) under `s`: `s.x` when `s.x == s.z`,
+/// else the nearest, `(s.x s.z)^(1/2)`.
+fn radial_scale(s: Vec3, how: &mut Scaling) -> f32 {
+    if s.x == s.z {
+        s.x
+    } else {
+        *how = Scaling::Nearest;
+        (s.x * s.z).sqrt()
+    }
+}
+
+/// The scale along the axes of a part turned by `rotation` that the scale `s` of its compound's
+/// frame gives: the length of each of its axes after scaling, `|s * (R e_k)|`. Exact when the
+/// part's axes are the frame's up to sign and order (or `s` is uniform); otherwise the scaled
+/// part would be sheared, and this is the nearest scale along its own axes.
+fn part_scale(rotation: Quat, s: Vec3, how: &mut Scaling) -> Vec3 {
+    if s.x == s.y && s.y == s.z {
+        return s;
+    }
+    let r = Mat3::from_quat(rotation);
+    let mut local = Vec3::ZERO;
+    let mut aligned = true;
+    for k in 0..3 {
+        let axis = r.col(k);
+        local[k] = (axis * s).length();
+        // An axis along a frame axis has one component of magnitude 1 (to rounding).
+        aligned &= axis.abs().max_element() > 1.0 - 1e-6;
+    }
+    if !aligned {
+        *how = Scaling::Nearest;
+    }
+    local
+}
+
+/// True for shapes without a bounded volume (half-space, trimesh, heightfield): they cannot be
+/// a part of a compound, and only static or kinematic bodies may use them.
+pub fn is_unbounded_or_hollow(shape: &dyn Shape) -> bool {
+    matches!(
+        shape.shape_type(),
+        ShapeType::HalfSpace | ShapeType::TriMesh | ShapeType::HeightField
+    )
+}
+
+/// One collider of a compound body, for [`body_shape`] and
+/// [`ComputedMass::from_parts`](crate::dynamics::ComputedMass::from_parts): its shape, already
+/// scaled, placed at `pose` in the body's frame (the body's origin, unscaled), with its own
+/// density (kg/m^3) or mass (kg).
+#[derive(Clone, Debug)]
+pub struct BodyPart {
+    /// The scaled shape.
+    pub shape: SharedShape,
+    /// Its pose in the body's frame.
+    pub pose: Pose,
+    /// Its density, kg/m^3.
+    pub density: f32,
+    /// Its own mass, kg, when it has a [`Mass`](crate::dynamics::Mass): its inertia is scaled to
+    /// match.
+    pub mass: Option<f32>,
+}
+
+/// The shape of a body made of `parts` (not empty, none unbounded or hollow unless it is the
+/// only one): a lone part at the body's origin is itself, so a scaled sphere stays a sphere;
+/// otherwise the compound of the parts, compound parts flattened into it.
+pub fn body_shape(parts: &[BodyPart]) -> SharedShape {
+    if let [part] = parts
+        && part.pose == Pose::IDENTITY
+    {
+        return part.shape.clone();
+    }
+    let mut shapes = Vec::with_capacity(parts.len());
+    for part in parts {
+        if let Some(inner) = part.shape.as_compound() {
+            shapes.extend(
+                inner
+                    .shapes()
+                    .iter()
+                    .map(|(p, s)| (part.pose * *p, s.clone())),
+            );
+        } else {
+            shapes.push((part.pose, part.shape.clone()));
+        }
+    }
+    SharedShape::compound(shapes)
+}
+
+/// Mass properties of one part at its density (or scaled to its own mass), in the body's frame.
+pub fn part_mass_properties(part: &BodyPart) -> MassProperties {
+    let mut props = shape_mass_properties(part.shape.as_ref(), part.density);
+    if let Some(m) = part.mass {
+        props.set_mass(m, true);
+    }
+    props.transform_by(&part.pose)
 }
 
 /// Checks a triangle mesh for [`Collider::trimesh`] and [`Collider::convex_decomposition`]

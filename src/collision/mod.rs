@@ -8,7 +8,7 @@ pub mod narrow_phase;
 pub mod sensor;
 
 pub use broad_phase::BroadPhaseTree;
-pub use collider::{Collider, ColliderDisabled};
+pub use collider::{Collider, ColliderDisabled, ColliderOf};
 pub use constructor::{
     ColliderConstructor, ColliderConstructorHierarchy, ColliderConstructorHierarchyConfig,
     ColliderConstructorHierarchyReady, ColliderConstructorReady,
@@ -31,6 +31,7 @@ impl Plugin for CollisionPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ContactPairs>()
             .register_type::<ColliderDisabled>()
+            .register_type::<ColliderOf>()
             .add_message::<CollisionStarted>()
             .add_message::<CollisionEnded>()
             .add_message::<CollisionStart>()

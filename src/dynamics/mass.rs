@@ -1,12 +1,25 @@
-//! Mass properties: from the collider's volume and density (or a mass override), validated.
+//! Mass properties: from the collider's volume and density (or a mass override), or summed over
+//! a compound body's colliders, validated.
 
 use bevy::prelude::*;
 
 use super::validation::{MAX_INVERSE_INERTIA, MAX_LENGTH, MAX_MASS, MIN_MASS, within};
+use parry3d::mass_properties::MassProperties;
+
 use crate::collision::Collider;
+use crate::collision::collider::{BodyPart, is_unbounded_or_hollow, part_mass_properties};
 
 /// Mass properties the plugin derives from [`Collider`], [`Density`](super::Density) and
 /// [`Mass`](super::Mass) whenever one of them changes.
+///
+/// For a body with colliders on child entities (see
+/// [`ColliderOf`](crate::collision::collider::ColliderOf)) or a `Transform` scale, it is the sum
+/// of its colliders' mass properties by the parallel-axis theorem
+/// ([`from_parts`](Self::from_parts)): each collider, scaled, at its pose relative to the body,
+/// with its own `Mass` (kg, its inertia scaled to match) if it has one, else its own `Density`,
+/// else the body's `Density`; the body's own collider takes the body's `Density`. A `Mass` on the
+/// body overrides the total (the inertia scaled to match, the centre of mass kept). Mass from
+/// density grows with the scaled volume; an explicit `Mass` stays.
 ///
 /// Read-only: the plugin owns it. A value written into it (by a system, a command or
 /// reflection) is discarded at the start of the next step, recomputed from the collider,
@@ -61,7 +74,80 @@ impl ComputedMass {
         } else if !(density.is_finite() && density > 0.0) {
             return Err(format!("density must be finite and > 0, got {density}"));
         }
-        let mut props = collider.mass_properties(density);
+        Self::from_properties(collider.mass_properties(density), mass, || {
+            format!("density {density:?}")
+        })
+    }
+
+    /// Mass properties of a body made of `parts` (each scaled, placed in the body's frame, with
+    /// its own density or mass; see [`BodyPart`]): their sum by the parallel-axis theorem
+    /// (parry's `MassProperties` addition), or with total mass `mass` (kg) when given, the
+    /// inertia scaled to that mass. Errors name what is wrong (a part without volume, a bad
+    /// density or mass, a total outside the bounds).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use bevy::prelude::*;
+    /// use impact3d::collision::collider::BodyPart;
+    /// use impact3d::prelude::*;
+    /// use parry3d::math::Pose;
+    ///
+    /// // Two 1 kg balls 2 m apart: 2 kg, centred between them, I = 2 (2/5 m r^2) + 2 m (1 m)^2
+    /// // about the axes across the bar.
+    /// let ball = |x: f32| BodyPart {
+    ///     shape: Collider::sphere(0.1).shape().clone(),
+    ///     pose: Pose::from_parts(Vec3::new(x, 0.0, 0.0), Quat::IDENTITY),
+    ///     density: 1000.0,
+    ///     mass: Some(1.0),
+    /// };
+    /// let m = ComputedMass::from_parts(&[ball(-1.0), ball(1.0)], None).unwrap();
+    /// assert!((m.inverse_mass - 0.5).abs() < 1e-6);
+    /// let i_y = 2.0 * (0.4 * 0.01) + 2.0;
+    /// assert!((1.0 / m.local_inverse_inertia.y_axis.y - i_y).abs() < 1e-5 * i_y);
+    /// ```
+    pub fn from_parts(parts: &[BodyPart], mass: Option<f32>) -> Result<ComputedMass, String> {
+        if parts.is_empty() {
+            return Err("a dynamic body needs a collider".to_string());
+        }
+        for part in parts {
+            if is_unbounded_or_hollow(part.shape.as_ref()) {
+                return Err(
+                    "a dynamic body needs colliders with volume (not a half-space or trimesh)"
+                        .to_string(),
+                );
+            }
+            if let Some(m) = part.mass {
+                if !(MIN_MASS..=MAX_MASS).contains(&m) {
+                    return Err(format!(
+                        "a collider's mass must be in [{MIN_MASS:e}, {MAX_MASS:e}] kg, got {m:?}"
+                    ));
+                }
+            } else if !(part.density.is_finite() && part.density > 0.0) {
+                return Err(format!(
+                    "a collider's density must be finite and > 0, got {}",
+                    part.density
+                ));
+            }
+        }
+        if let Some(m) = mass
+            && !(MIN_MASS..=MAX_MASS).contains(&m)
+        {
+            return Err(format!(
+                "mass must be in [{MIN_MASS:e}, {MAX_MASS:e}] kg, got {m:?}"
+            ));
+        }
+        let props: MassProperties = parts.iter().map(part_mass_properties).sum();
+        Self::from_properties(props, mass, || "the colliders' densities".to_string())
+    }
+
+    /// Finishes [`from_collider`](Self::from_collider) and [`from_parts`](Self::from_parts):
+    /// applies the mass override, checks the result (`source` names what gave the mass).
+    fn from_properties(
+        mut props: MassProperties,
+        mass: Option<f32>,
+        source: impl Fn() -> String,
+    ) -> Result<ComputedMass, String> {
         if let Some(m) = mass {
             props.set_mass(m, true);
         }
@@ -77,7 +163,8 @@ impl ComputedMass {
         }
         if mass.is_none() && !(MIN_MASS..=MAX_MASS).contains(&(1.0 / props.inv_mass)) {
             return Err(format!(
-                "density {density:?} gives a mass of {:?} kg, outside [{MIN_MASS:e}, {MAX_MASS:e}] kg",
+                "{} gives a mass of {:?} kg, outside [{MIN_MASS:e}, {MAX_MASS:e}] kg",
+                source(),
                 1.0 / props.inv_mass
             ));
         }

@@ -128,6 +128,9 @@ pub struct PhysicsState {
     steps_since_bound_warning: u32,
     /// The shapes scaled to the length unit, for contact generation.
     unit_shapes: UnitShapes,
+    /// Colliders on child entities, parented bodies and scaled shapes (see
+    /// [`prepare::resolve_hierarchy`]).
+    hierarchy: prepare::HierarchyState,
     /// The settings of this step, validated (see [`validate_settings`]) and with lengths and
     /// speeds scaled by the length unit: the stages read these, never the resources, so the
     /// solver only sees valid values.

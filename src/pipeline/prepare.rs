@@ -9,6 +9,12 @@ use bevy::prelude::*;
 use parry3d::bounding_volume::BoundingVolume;
 use parry3d::math::Pose;
 
+use bevy::ecs::entity::{EntityHashMap, EntityHashSet};
+use parry3d::shape::SharedShape;
+
+use crate::collision::collider::{
+    BodyPart, ColliderOf, Scaling, body_shape, is_unbounded_or_hollow, scaled_shape,
+};
 use crate::collision::sensor::Reporting;
 use crate::collision::{
     Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers, Sensor,
@@ -50,7 +56,7 @@ impl Plugin for PreparePlugin {
 #[query_data(mutable)]
 pub struct BodyData {
     entity: Entity,
-    collider: Ref<'static, Collider>,
+    collider: Option<Ref<'static, Collider>>,
     body: Option<Ref<'static, RigidBody>>,
     transform: Ref<'static, Transform>,
     linear_velocity: Option<Ref<'static, LinearVelocity>>,
@@ -146,6 +152,14 @@ pub struct StepSettings<'w> {
     clock: Res<'w, PhysicsTime>,
 }
 
+/// The awake bodies a step gathers: any entity with a collider or a body (a body may have its
+/// colliders on its children only), not disabled.
+type AwakeBodies = (
+    Without<Sleeping>,
+    Without<RigidBodyDisabled>,
+    Or<(With<Collider>, With<RigidBody>)>,
+);
+
 /// The sleeping bodies: the entities of those disturbed since the last step, and every
 /// sleeping body with the components the prepare stage reads.
 type SleepingBodies<'w, 's> = ParamSet<
@@ -158,12 +172,21 @@ type SleepingBodies<'w, 's> = ParamSet<
             Entity,
             (
                 With<Sleeping>,
-                With<Collider>,
+                Or<(With<Collider>, With<RigidBody>)>,
                 Without<RigidBodyDisabled>,
                 Disturbed,
             ),
         >,
-        Query<'static, 'static, BodyData, (With<Sleeping>, Without<RigidBodyDisabled>)>,
+        Query<
+            'static,
+            'static,
+            BodyData,
+            (
+                With<Sleeping>,
+                Or<(With<Collider>, With<RigidBody>)>,
+                Without<RigidBodyDisabled>,
+            ),
+        >,
     ),
 >;
 
@@ -234,20 +257,23 @@ impl MotionRemovals<'_, '_> {
 
 /// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
 /// mass properties up to date and packs the solver bodies. A collider without a `RigidBody` is
-/// static.
+/// static, unless it is on a descendant of a body: then it is a part of that body (see
+/// [`ColliderOf`] and [`resolve_hierarchy`]).
 ///
 /// A sleeping body is read only when something may have touched it (a component it depends
 /// on changed or was removed, or it was just put to sleep); the others keep their record in
 /// the [`SleepingSet`](crate::dynamics::sleep::SleepingSet) and sit out the step, unless the
 /// broad phase finds an awake body's box over theirs or their island wakes.
+#[allow(clippy::too_many_arguments)]
 pub fn prepare_bodies(
     mut commands: Commands,
     ticks: SystemChangeTick,
     settings: StepSettings,
     mut state: ResMut<PhysicsState>,
-    mut awake: Query<BodyData, (Without<Sleeping>, Without<RigidBodyDisabled>)>,
+    mut awake: Query<BodyData, AwakeBodies>,
     mut sleeping: SleepingBodies,
     mut removals: BodyRemovals,
+    hierarchy: HierarchyData,
 ) {
     let state = &mut *state;
     validate_settings(
@@ -261,6 +287,7 @@ pub fn prepare_bodies(
     );
     let sleep_enabled = state.settings.sleep.enabled;
     begin_step(state);
+    resolve_hierarchy(state, &mut commands, &hierarchy);
     // Bodies that lost their layers or sensor marker may now pair with bodies they were kept
     // from: they are active in this step.
     state.layers_removed.clear();
@@ -273,6 +300,7 @@ pub fn prepare_bodies(
             state.departed.push(item.entity);
         }
     }
+    state.hierarchy.prune();
     // A disabled body leaves the step as a despawned one does: its pairs end.
     state.departed.extend(removals.disabled.iter());
     let read = sleepers_to_read(state, &mut sleeping, &mut removals);
@@ -350,6 +378,7 @@ fn sleepers_to_read(
         removals.locked.read().collect(),
         state.layers_removed.clone(),
     ];
+    state.hierarchy.forget(&removed[0]);
     for entity in removed.into_iter().flatten() {
         if state.sleepers.get(entity).is_some() {
             state.sleepers.remove(entity);
@@ -365,6 +394,15 @@ fn sleepers_to_read(
         }
         read.push(entity);
     }
+    // Bodies whose ancestors moved or whose child colliders changed are read (and woken).
+    for &entity in &state.hierarchy.disturbed {
+        if state.sleepers.get(entity).is_some() {
+            state.sleepers.remove(entity);
+        }
+        read.push(entity);
+    }
+    // The shapes built for bodies that left are dropped (rebuilt if they come back).
+    state.hierarchy.forget(&state.departed);
     let departed = state.departed.clone();
     for &entity in &departed {
         state.sleepers.remove(entity);
@@ -430,6 +468,9 @@ fn gather_sleeper(
             state.sleepers.remove(entity);
             state.read_every_step.push(entity);
         }
+        Gathered::Skipped => {
+            state.sleepers.remove(entity);
+        }
     }
 }
 
@@ -441,6 +482,9 @@ enum Gathered {
     Awake,
     /// Packed as a sleeping body (static in the solve unless woken).
     Asleep,
+    /// Not a body of the step: a collider that is a part of another body, or a body with no
+    /// collider.
+    Skipped,
 }
 
 /// Validates one body and packs it into the step's arrays (see [`prepare_bodies`]).
@@ -459,12 +503,47 @@ fn gather_body(
     let dt = state.settings.dt;
     let gravity_speed = state.settings.gravity.0.length() * dt;
     let entity = item.entity;
+    let hierarchy = &state.hierarchy;
+    if !hierarchy.attached.is_empty() && hierarchy.attached.binary_search(&entity).is_ok() {
+        return Gathered::Skipped;
+    }
+    let has_parts = hierarchy.has_parts(entity);
+    if item.collider.is_none() && !has_parts {
+        return Gathered::Skipped;
+    }
+    // The world pose: the `Transform` of a top-level entity, read as it is.
+    let world = hierarchy.world_pose(entity).unwrap_or(*item.transform);
+    let disturbed = hierarchy.is_disturbed(entity);
+    let reshaped = hierarchy.is_reshaped(entity);
+    let was_built = !hierarchy.built.is_empty() && hierarchy.built.contains_key(&entity);
     let kind = item.body.as_deref().copied().unwrap_or(RigidBody::Static);
     let gravity = state.settings.gravity.0;
-    let check = validate(item, kind).and_then(|()| match kind {
-        RigidBody::Dynamic => body_motion(item, gravity),
-        _ => Ok(None),
-    });
+    // A body with child colliders or a scale has its shape built (and kept until it changes);
+    // any other has its collider's shape, as it is.
+    let built = if has_parts || world.scale != Vec3::ONE {
+        match build_body(state, item, world.scale) {
+            Ok(Some(changed)) => Ok(Some(changed)),
+            Ok(None) => return Gathered::Skipped,
+            Err(reason) => Err(reason),
+        }
+    } else {
+        Ok(None)
+    };
+    let geometry = match &built {
+        Ok(Some(changed)) => Some((state.hierarchy.built.get(&entity), *changed)),
+        _ => None,
+    };
+    let check = built
+        .and_then(|_| {
+            // Built in an earlier step and no longer (its scale went back to 1, or it lost its
+            // child colliders): its mass properties are its own collider's again.
+            let unbuilt = geometry.is_none() && was_built;
+            validate(item, kind, &world, geometry, reshaped || unbuilt)
+        })
+        .and_then(|()| match kind {
+            RigidBody::Dynamic => body_motion(item, world.rotation, gravity),
+            _ => Ok(None),
+        });
     // Whether a sleeping body was pushed, before the one-off forces are spent.
     let pushed = item
         .sleeping
@@ -498,8 +577,8 @@ fn gather_body(
     };
     warn_on_coefficient_change(&label, item.restitution.as_ref(), "restitution", 1.0);
     warn_on_coefficient_change(&label, item.friction.as_ref(), "friction", f32::INFINITY);
-    let rotation = item.transform.rotation.normalize();
-    let translation = item.transform.translation;
+    let rotation = world.rotation.normalize();
+    let translation = world.translation;
     let motion = match kind {
         RigidBody::Dynamic => Motion::Dynamic,
         RigidBody::Kinematic => Motion::Kinematic,
@@ -526,9 +605,20 @@ fn gather_body(
         extra.start_step(&mut body, dt);
     }
 
-    let shape = item.collider.shape().clone();
+    let (shape, rebuilt) = match geometry {
+        Some((Some(built), changed)) => (built.shape.clone(), changed),
+        _ => (
+            item.collider
+                .as_deref()
+                .expect("a body without parts has its own collider")
+                .shape()
+                .clone(),
+            false,
+        ),
+    };
     let pose = Pose::from_parts(translation, rotation);
-    let radius = if item.collider.is_unbounded_or_hollow() {
+    let sphere = shape.as_ball().is_some();
+    let radius = if is_unbounded_or_hollow(shape.as_ref()) {
         0.0
     } else {
         let local = shape.compute_local_aabb();
@@ -551,7 +641,8 @@ fn gather_body(
                     .angular_velocity
                     .as_ref()
                     .is_some_and(|w| w.last_changed().is_newer_than(since, now))
-                || pushed;
+                || pushed
+                || disturbed;
             let island = if marker.island == Entity::PLACEHOLDER {
                 entity
             } else {
@@ -646,13 +737,11 @@ fn gather_body(
     }
     state.reporting.push(reporting);
     state.reach.push(reach);
-    state
-        .spin_reach
-        .push(if moving && !item.collider.is_sphere() {
-            body.angular_velocity.length() * radius * dt
-        } else {
-            0.0
-        });
+    state.spin_reach.push(if moving && !sphere {
+        body.angular_velocity.length() * radius * dt
+    } else {
+        0.0
+    });
     state.aabbs.push(aabb);
     // Dynamic and kinematic bodies are active (asleep ones are static here, and turned
     // back by `wake_islands` if woken); a static or sleeping body only if something about
@@ -661,7 +750,9 @@ fn gather_body(
     state.active.push(
         body.motion != Motion::Static
             || item.transform.is_changed()
-            || item.collider.is_changed()
+            || item.collider.as_ref().is_some_and(|c| c.is_changed())
+            || disturbed
+            || rebuilt
             || item.body.as_ref().is_some_and(|b| b.is_changed())
             || item.quarantined.is_some()
             || item.sleeping.as_ref().is_some_and(|m| m.is_added())
@@ -684,12 +775,22 @@ fn gather_body(
     }
 }
 
-/// Checks one body's input and refreshes its mass properties when their inputs changed.
-fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
-    if let Some(error) = item.collider.error() {
+/// Checks one body's input (at its world pose `t`) and refreshes its mass properties when
+/// their inputs changed. `geometry`, for a body whose shape is built (child colliders or a
+/// scale; already checked by [`build_body`]), is that and whether it changed in this step;
+/// `reshaped`: the body's child colliders changed (its mass properties are recomputed).
+fn validate(
+    item: &mut BodyDataItem,
+    kind: RigidBody,
+    t: &Transform,
+    geometry: Option<(Option<&BuiltBody>, bool)>,
+    reshaped: bool,
+) -> Result<(), String> {
+    if geometry.is_none()
+        && let Some(error) = item.collider.as_ref().and_then(|c| c.error())
+    {
         return Err(format!("invalid collider: {error}"));
     }
-    let t = &*item.transform;
     if !within(t.translation.abs().max_element(), MAX_COORDINATE) {
         return Err(format!(
             "translation {} is not finite or beyond {MAX_COORDINATE:e} m",
@@ -720,8 +821,10 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
             .as_ref()
             .is_some_and(|c| c.is_changed() && !c.is_added());
         let changed = written
+            || geometry.is_some_and(|(_, changed)| changed)
+            || reshaped
             || item.computed.as_ref().is_some_and(|c| c.is_added())
-            || item.collider.is_changed()
+            || item.collider.as_ref().is_some_and(|c| c.is_changed())
             || item.body.as_ref().is_some_and(|b| b.is_changed())
             || item.mass.as_ref().is_some_and(|m| m.is_changed())
             || item.density.as_ref().is_some_and(|d| d.is_changed())
@@ -732,11 +835,12 @@ fn validate(item: &mut BodyDataItem, kind: RigidBody) -> Result<(), String> {
                 .density
                 .as_deref()
                 .map_or(Density::default().0, |d| d.0);
-            let computed = ComputedMass::from_collider(
-                &item.collider,
-                density,
-                item.mass.as_deref().map(|m| m.0),
-            )?;
+            let mass = item.mass.as_deref().map(|m| m.0);
+            let computed = match (geometry, item.collider.as_deref()) {
+                (Some((Some(built), _)), _) => ComputedMass::from_parts(&built.parts, mass)?,
+                (None, Some(collider)) => ComputedMass::from_collider(collider, density, mass)?,
+                _ => return Err("dynamic body has no collider".to_string()),
+            };
             if let Some(mut c) = item.computed.take() {
                 if written && *c != computed {
                     log::warn!(
@@ -792,7 +896,11 @@ fn pushed_since(m: &MotionDataItem, since: Tick, now: Tick) -> bool {
 /// Checks a dynamic body's forces, accelerations, gravity scale, damping and speed caps, and
 /// gathers them (world frame) for the step: `None` when it has none of them, so the step
 /// leaves it exactly as before. Errors name the component and the value.
-fn body_motion(item: &BodyDataItem, gravity: Vec3) -> Result<Option<BodyMotion>, String> {
+fn body_motion(
+    item: &BodyDataItem,
+    rotation: Quat,
+    gravity: Vec3,
+) -> Result<Option<BodyMotion>, String> {
     let m = &item.motion;
     let finite = |what: &str, v: Vec3| {
         if v.is_finite() {
@@ -801,7 +909,7 @@ fn body_motion(item: &BodyDataItem, gravity: Vec3) -> Result<Option<BodyMotion>,
             Err(format!("{what} {v} is not finite"))
         }
     };
-    let rotation = item.transform.rotation.normalize();
+    let rotation = rotation.normalize();
     let locked = item.locked.copied().unwrap_or_default();
     let mut force = Vec3::ZERO;
     let mut torque = Vec3::ZERO;
@@ -907,4 +1015,550 @@ fn clamp_coefficient(value: Option<f32>, max: f32) -> f32 {
         Some(v) => v.clamp(0.0, max),
         None => 0.0,
     }
+}
+
+// The entity hierarchy: colliders on child entities, parented bodies, scale.
+
+/// What the prepare stage knows of the entity hierarchy: rebuilt each step by
+/// [`resolve_hierarchy`] (the child colliders, the world poses of parented entities), and kept
+/// across steps (each body's built shape, until its inputs change).
+#[derive(Default)]
+pub(super) struct HierarchyState {
+    /// The colliders that are parts of another entity's body in this step, `(body, part)`,
+    /// sorted by body, then in the order of the body's descendants (depth first, each entity's
+    /// `Children` in their order: the order of `Collider::compound`'s parts when they were
+    /// spawned in that order).
+    parts: Vec<(Entity, ChildPart)>,
+    /// Scratch: the depth-first position of each descendant of the bodies with parts, sorted
+    /// by entity.
+    order: Vec<(Entity, u32)>,
+    /// The entities of those colliders, sorted: they are not bodies of their own.
+    attached: Vec<Entity>,
+    /// The world pose of each gathered entity with a parent, sorted by entity.
+    world: Vec<(Entity, Transform)>,
+    /// The world pose of the parent of each body that has one, at the start of the step,
+    /// sorted by entity: the write-back turns the solved world pose into a local `Transform`.
+    pub(super) parent_frames: Vec<(Entity, Transform)>,
+    /// The bodies whose ancestors or child colliders changed since the last step, sorted: read
+    /// (and woken) even when asleep.
+    disturbed: Vec<Entity>,
+    /// The bodies whose child colliders changed since the last step (were added, removed,
+    /// moved, or changed shape, density or mass), sorted: their mass properties are recomputed.
+    reshaped: Vec<Entity>,
+    /// The shape and parts built for each body with child colliders or a scale.
+    built: EntityHashMap<BuiltBody>,
+    /// The entities a warning has been logged for (a scale their shape cannot take, a child
+    /// collider that cannot be a part of its body): each is warned about once.
+    warned: EntityHashSet,
+}
+
+impl HierarchyState {
+    /// The colliders of `body` that sit on other entities.
+    fn parts_of(&self, body: Entity) -> &[(Entity, ChildPart)] {
+        parts_in(&self.parts, body)
+    }
+
+    fn has_parts(&self, body: Entity) -> bool {
+        !self.parts_of(body).is_empty()
+    }
+
+    /// The world pose of `entity` if it has a parent.
+    fn world_pose(&self, entity: Entity) -> Option<Transform> {
+        if self.world.is_empty() {
+            return None;
+        }
+        let i = self.world.binary_search_by_key(&entity, |(e, _)| *e).ok()?;
+        Some(self.world[i].1)
+    }
+
+    fn is_disturbed(&self, entity: Entity) -> bool {
+        !self.disturbed.is_empty() && self.disturbed.binary_search(&entity).is_ok()
+    }
+
+    fn is_reshaped(&self, entity: Entity) -> bool {
+        !self.reshaped.is_empty() && self.reshaped.binary_search(&entity).is_ok()
+    }
+
+    /// The world pose of the parent of body `entity`, if it has one.
+    pub(super) fn parent_frame(&self, entity: Entity) -> Option<Transform> {
+        if self.parent_frames.is_empty() {
+            return None;
+        }
+        let i = self
+            .parent_frames
+            .binary_search_by_key(&entity, |(e, _)| *e)
+            .ok()?;
+        Some(self.parent_frames[i].1)
+    }
+
+    /// Drops the shapes built for `entities` (bodies that left the step).
+    fn forget(&mut self, entities: &[Entity]) {
+        if self.built.is_empty() {
+            return;
+        }
+        for entity in entities {
+            self.built.remove(entity);
+        }
+    }
+
+    /// Drops the shapes built for bodies that neither have child colliders nor were built in
+    /// this step (no longer scaled, or asleep and scaled: rebuilt, to the same shape, when
+    /// read again).
+    fn prune(&mut self) {
+        self.built.retain(|_, b| b.needed);
+    }
+}
+
+/// The entries of `body` in `parts` (sorted by body).
+fn parts_in(parts: &[(Entity, ChildPart)], body: Entity) -> &[(Entity, ChildPart)] {
+    if parts.is_empty() {
+        return &[];
+    }
+    let start = parts.partition_point(|(b, _)| *b < body);
+    let end = start + parts[start..].partition_point(|(b, _)| *b == body);
+    &parts[start..end]
+}
+
+/// A collider on a descendant of a body, as [`resolve_hierarchy`] found it.
+#[derive(Clone)]
+struct ChildPart {
+    collider: Entity,
+    /// Its shape, unscaled (kept, so that its address identifies it while it lives).
+    shape: SharedShape,
+    error: Option<String>,
+    /// Its pose and scale relative to the body's frame (the body's world pose without scale):
+    /// the body's world scale, then the `Transform`s from the body down to the collider.
+    relative: Transform,
+    density: Option<f32>,
+    mass: Option<f32>,
+    disabled: bool,
+    name: Option<Name>,
+}
+
+impl ChildPart {
+    /// The same collider with the same inputs (the same shape allocation, bit-equal numbers).
+    fn same(&self, other: &ChildPart) -> bool {
+        let bits = |t: &Transform| {
+            let mut out = [0u32; 10];
+            let values = t
+                .translation
+                .to_array()
+                .into_iter()
+                .chain(t.rotation.to_array())
+                .chain(t.scale.to_array());
+            for (o, x) in out.iter_mut().zip(values) {
+                *o = x.to_bits();
+            }
+            out
+        };
+        self.collider == other.collider
+            && std::sync::Arc::ptr_eq(&self.shape.0, &other.shape.0)
+            && bits(&self.relative) == bits(&other.relative)
+            && self.density.map(f32::to_bits) == other.density.map(f32::to_bits)
+            && self.mass.map(f32::to_bits) == other.mass.map(f32::to_bits)
+            && self.disabled == other.disabled
+    }
+}
+
+/// The shape built for a body with child colliders or a scale, and the inputs it was built
+/// from.
+struct BuiltBody {
+    /// The body's own collider shape, unscaled.
+    own: Option<SharedShape>,
+    /// The body's world scale, as bits.
+    scale: [u32; 3],
+    /// The body's density (for its own collider and children without one), as bits.
+    density: u32,
+    children: Vec<ChildPart>,
+    /// The colliders, scaled and placed in the body's frame.
+    parts: Vec<BodyPart>,
+    /// The shape of the step: the lone scaled collider, or the compound of all.
+    shape: SharedShape,
+    /// Visited in this step or still needed (see [`HierarchyState::prune`]).
+    needed: bool,
+}
+
+/// The entity hierarchy the prepare stage reads.
+#[derive(SystemParam)]
+pub struct HierarchyData<'w, 's> {
+    /// Every entity's transform and parent, to walk up the tree.
+    nodes: Query<'w, 's, HierarchyNode>,
+    /// The entities with a parent that a step may gather: bodies and colliders.
+    parented: Query<'w, 's, ParentedEntity, ParentedFilter>,
+    /// What a child collider adds to its body.
+    info: Query<'w, 's, PartInfo>,
+    /// The colliders marked as parts of a body.
+    marked: Query<'w, 's, Entity, With<ColliderOf>>,
+    /// Each entity's children, in order: a body's parts are ordered as its descendants are.
+    children: Query<'w, 's, &'static Children>,
+}
+
+/// The world transform of `entity` (its `Transform` composed with its ancestors', as Bevy's
+/// `GlobalTransform` holds after propagation, here as it is at the step) and whether any of
+/// them, or a parent link on the way, changed since the last step.
+fn world_of(nodes: &Query<HierarchyNode>, entity: Entity) -> (Transform, bool) {
+    let mut world: Option<Transform> = None;
+    let mut changed = false;
+    let mut e = entity;
+    // Bevy's hierarchy has no cycles; the bound only keeps a broken one from hanging the step.
+    for _ in 0..4096 {
+        let Ok((transform, parent, _, _)) = nodes.get(e) else {
+            break;
+        };
+        if let Some(t) = transform {
+            changed |= t.is_changed();
+            world = Some(match world {
+                Some(below) => t.mul_transform(below),
+                None => *t,
+            });
+        }
+        match parent {
+            Some(p) => {
+                changed |= p.is_changed();
+                e = p.parent();
+            }
+            None => break,
+        }
+    }
+    (world.unwrap_or_default(), changed)
+}
+
+/// An entity with a parent that a step may gather: its parent, whether it is a body, its
+/// collider.
+type ParentedEntity = (
+    Entity,
+    &'static ChildOf,
+    Has<RigidBody>,
+    Option<&'static Collider>,
+);
+
+/// Bodies and colliders, not disabled.
+type ParentedFilter = (
+    Or<(With<RigidBody>, With<Collider>)>,
+    Without<RigidBodyDisabled>,
+);
+
+/// What a child collider adds to its body: its density, mass, name, whether it is disabled, and
+/// the body it was marked a part of.
+type PartInfo = (
+    Option<&'static Density>,
+    Option<&'static Mass>,
+    Option<&'static Name>,
+    Has<ColliderDisabled>,
+    Option<&'static ColliderOf>,
+);
+
+/// The item [`HierarchyData::nodes`] reads.
+type HierarchyNode = (
+    Option<Ref<'static, Transform>>,
+    Option<Ref<'static, ChildOf>>,
+    Option<&'static RigidBody>,
+    Option<&'static Collider>,
+);
+
+/// Finds, for this step, the colliders that are parts of a body (each collider without a
+/// `RigidBody` under an entity with one: the nearest such ancestor, avian3d's rule), their poses
+/// relative to their bodies, and the world poses of parented bodies and static colliders; keeps
+/// [`ColliderOf`] on the parts; and marks the bodies whose ancestors or parts changed. A
+/// collider with no body above it is a static collider at its world pose.
+pub(super) fn resolve_hierarchy(
+    state: &mut PhysicsState,
+    commands: &mut Commands,
+    h: &HierarchyData,
+) {
+    let hs = &mut state.hierarchy;
+    hs.parts.clear();
+    hs.attached.clear();
+    hs.world.clear();
+    hs.parent_frames.clear();
+    hs.disturbed.clear();
+    hs.reshaped.clear();
+    for (entity, child_of, is_body, collider) in h.parented.iter() {
+        let parent = child_of.parent();
+        if is_body {
+            let (frame, moved) = world_of(&h.nodes, parent);
+            let (own, up) = match h.nodes.get(entity) {
+                Ok((t, up, _, _)) => (t.map_or(Transform::IDENTITY, |t| *t), up),
+                Err(_) => (Transform::IDENTITY, None),
+            };
+            hs.world.push((entity, frame.mul_transform(own)));
+            hs.parent_frames.push((entity, frame));
+            if moved || up.is_some_and(|p| p.is_changed()) {
+                hs.disturbed.push(entity);
+            }
+            continue;
+        }
+        let Some(collider) = collider else {
+            continue;
+        };
+        // Up the tree to the nearest body, composing the transforms below it.
+        let mut relative = match h.nodes.get(entity) {
+            Ok((Some(t), _, _, _)) => *t,
+            _ => Transform::IDENTITY,
+        };
+        let mut body = None;
+        let mut e = parent;
+        for _ in 0..4096 {
+            let Ok((transform, up, rigid, own)) = h.nodes.get(e) else {
+                break;
+            };
+            if let Some(kind) = rigid {
+                body = Some((e, *kind, own));
+                break;
+            }
+            if let Some(t) = transform {
+                relative = t.mul_transform(relative);
+            }
+            match up {
+                Some(p) => e = p.parent(),
+                None => break,
+            }
+        }
+        let Ok((density, mass, name, disabled, marked)) = h.info.get(entity) else {
+            continue;
+        };
+        let composable = |c: Option<&Collider>| c.is_none_or(|c| !c.is_unbounded_or_hollow());
+        match body {
+            Some((b, _, own)) if composable(Some(collider)) && composable(own) => {
+                let scale = world_of(&h.nodes, b).0.scale;
+                if scale != Vec3::ONE {
+                    relative = Transform::from_scale(scale).mul_transform(relative);
+                }
+                hs.parts.push((
+                    b,
+                    ChildPart {
+                        collider: entity,
+                        shape: collider.shape().clone(),
+                        error: collider.error().map(str::to_string),
+                        relative,
+                        density: density.map(|d| d.0),
+                        mass: mass.map(|m| m.0),
+                        disabled,
+                        name: name.cloned(),
+                    },
+                ));
+                hs.attached.push(entity);
+                if marked.map(|m| m.body) != Some(b) {
+                    commands.entity(entity).insert(ColliderOf { body: b });
+                    // It may have been a static collider of its own until now: its pairs end.
+                    state.departed.push(entity);
+                }
+            }
+            found => {
+                if let Some((_, kind, _)) = found
+                    && kind != RigidBody::Static
+                    && hs.warned.insert(entity)
+                {
+                    log::warn!(
+                        "impact3d: {} is a triangle mesh, heightfield or half-space (or its \
+                         body's own collider is one) and cannot be a part of its {kind:?} body; \
+                         it stays a static collider at its pose",
+                        body_label(entity, name)
+                    );
+                }
+                let (world, moved) = world_of(&h.nodes, entity);
+                hs.world.push((entity, world));
+                if moved {
+                    hs.disturbed.push(entity);
+                }
+            }
+        }
+    }
+    hs.attached.sort_unstable();
+    for entity in h.marked.iter() {
+        if hs.attached.binary_search(&entity).is_err() {
+            commands.entity(entity).remove::<ColliderOf>();
+        }
+    }
+    // The parts of each body in the order of its descendants.
+    hs.order.clear();
+    let mut bodies: Vec<Entity> = hs.parts.iter().map(|(b, _)| *b).collect();
+    bodies.sort_unstable();
+    bodies.dedup();
+    let mut stack = Vec::new();
+    for body in bodies {
+        let mut n = 0u32;
+        stack.clear();
+        stack.push(body);
+        while let Some(e) = stack.pop() {
+            hs.order.push((e, n));
+            n += 1;
+            if let Ok(children) = h.children.get(e) {
+                stack.extend(children.iter().rev());
+            }
+        }
+    }
+    hs.order.sort_unstable_by_key(|(e, _)| *e);
+    let order = &hs.order;
+    let position = |e: Entity| {
+        order
+            .binary_search_by_key(&e, |(k, _)| *k)
+            .map_or(u32::MAX, |i| order[i].1)
+    };
+    hs.parts
+        .sort_by_cached_key(|(body, part)| (*body, position(part.collider), part.collider));
+    hs.world.sort_unstable_by_key(|(e, _)| *e);
+    hs.parent_frames.sort_unstable_by_key(|(e, _)| *e);
+    // Bodies whose parts changed, and those that lost all of them.
+    for b in hs.built.values_mut() {
+        b.needed = false;
+    }
+    let mut i = 0;
+    while i < hs.parts.len() {
+        let body = hs.parts[i].0;
+        let n = hs.parts[i..].partition_point(|(b, _)| *b == body);
+        let parts = &hs.parts[i..i + n];
+        let same = hs.built.get_mut(&body).is_some_and(|built| {
+            built.needed = true;
+            built.children.len() == n
+                && built
+                    .children
+                    .iter()
+                    .zip(parts)
+                    .all(|(a, (_, b))| a.same(b))
+        });
+        if !same {
+            hs.reshaped.push(body);
+        }
+        i += n;
+    }
+    for (&body, built) in hs.built.iter() {
+        if !built.children.is_empty() && parts_in(&hs.parts, body).is_empty() {
+            hs.reshaped.push(body);
+        }
+    }
+    hs.reshaped.sort_unstable();
+    hs.disturbed.extend_from_slice(&hs.reshaped);
+    hs.disturbed.sort_unstable();
+    hs.disturbed.dedup();
+}
+
+/// Checks that a scale is usable: each component finite and > 0.
+fn check_scale(what: &str, scale: Vec3) -> Result<(), String> {
+    if scale.is_finite() && scale.min_element() > 0.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "{what} {scale} is not usable (each component must be finite and > 0)"
+        ))
+    }
+}
+
+/// Builds (or keeps, when its inputs did not change) the shape of a body with child colliders
+/// or a world scale `scale`: its own collider scaled by `scale`, and each part scaled and placed
+/// relative to the body. `Ok(Some(changed))` when built (`changed`: in this step), `Ok(None)`
+/// when the body has no collider left (every part disabled), `Err` naming a bad scale or
+/// collider.
+fn build_body(
+    state: &mut PhysicsState,
+    item: &BodyDataItem,
+    scale: Vec3,
+) -> Result<Option<bool>, String> {
+    let entity = item.entity;
+    let hs = &mut state.hierarchy;
+    let own = item.collider.as_deref();
+    if let Some(error) = own.and_then(Collider::error) {
+        return Err(format!("invalid collider: {error}"));
+    }
+    check_scale("scale", scale)?;
+    let children = parts_in(&hs.parts, entity);
+    for (_, part) in children {
+        let label = || {
+            format!(
+                "child collider {}",
+                body_label(part.collider, part.name.as_ref())
+            )
+        };
+        if let Some(error) = &part.error {
+            return Err(format!("{}: invalid collider: {error}", label()));
+        }
+        check_scale(&format!("{} has scale", label()), part.relative.scale)?;
+        let norm = part.relative.rotation.length_squared();
+        if !(part.relative.translation.is_finite() && norm.is_finite() && norm >= 1e-12) {
+            return Err(format!(
+                "{}: its pose relative to the body ({:?}) is not finite",
+                label(),
+                part.relative
+            ));
+        }
+    }
+    let density = item
+        .density
+        .as_deref()
+        .map_or(Density::default().0, |d| d.0);
+    let scale_bits = scale.to_array().map(f32::to_bits);
+    if let Some(built) = hs.built.get_mut(&entity) {
+        let same = built.scale == scale_bits
+            && built.density == density.to_bits()
+            && match (&built.own, own) {
+                (Some(a), Some(b)) => std::sync::Arc::ptr_eq(&a.0, &b.shape().0),
+                (None, None) => true,
+                _ => false,
+            }
+            && built.children.len() == children.len()
+            && built
+                .children
+                .iter()
+                .zip(children)
+                .all(|(a, (_, b))| a.same(b));
+        if same {
+            built.needed = true;
+            return Ok((!built.parts.is_empty()).then_some(false));
+        }
+    }
+    let mut parts = Vec::with_capacity(children.len() + 1);
+    let mut nearest = Vec::new();
+    if let Some(own) = own {
+        let (shape, how) = scaled_shape(own.shape(), scale)?;
+        if how == Scaling::Nearest {
+            nearest.push((entity, item.name.cloned(), scale));
+        }
+        parts.push(BodyPart {
+            shape,
+            pose: Pose::IDENTITY,
+            density,
+            mass: None,
+        });
+    }
+    for (_, part) in children.iter().filter(|(_, p)| !p.disabled) {
+        let r = &part.relative;
+        let (shape, how) = scaled_shape(&part.shape, r.scale)?;
+        if how == Scaling::Nearest {
+            nearest.push((part.collider, part.name.clone(), r.scale));
+        }
+        parts.push(BodyPart {
+            shape,
+            pose: Pose::from_parts(r.translation, r.rotation.normalize()),
+            density: part.density.unwrap_or(density),
+            mass: part.mass,
+        });
+    }
+    for (collider, name, s) in nearest {
+        if hs.warned.insert(collider) {
+            log::warn!(
+                "impact3d: {}'s shape cannot take the scale {s}; the nearest it can take is used \
+                 (see `scaled_shape`)",
+                body_label(collider, name.as_ref())
+            );
+        }
+    }
+    let shape = if parts.is_empty() {
+        SharedShape::ball(1.0)
+    } else {
+        body_shape(&parts)
+    };
+    let empty = parts.is_empty();
+    hs.built.insert(
+        entity,
+        BuiltBody {
+            own: own.map(|c| c.shape().clone()),
+            scale: scale_bits,
+            density: density.to_bits(),
+            children: children.iter().map(|(_, p)| p.clone()).collect(),
+            parts,
+            shape,
+            needed: true,
+        },
+    );
+    Ok((!empty).then_some(true))
 }

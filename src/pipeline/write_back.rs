@@ -32,7 +32,9 @@ type WriteBackData = (
 
 /// Writes poses and velocities of moving bodies back to their components. A body whose result
 /// is not finite (finite input that overflowed) is not written: it is quarantined instead, so
-/// no NaN ever reaches a component.
+/// no NaN ever reaches a component. A top-level body's `Transform` is its world pose; a body
+/// with a parent gets the local `Transform` that puts it at the solved world pose (its scale is
+/// left as it is).
 pub fn write_back(
     mut commands: Commands,
     state: Res<PhysicsState>,
@@ -65,9 +67,15 @@ pub fn write_back(
             continue;
         };
         let translation = body.position - body.rotation * local_com;
-        if transform.translation != translation || transform.rotation != body.rotation {
+        // A body with a parent: the local pose that puts it at the solved world pose under its
+        // parent's world pose at the start of the step (see `local_pose`).
+        let (translation, rotation) = match state.hierarchy.parent_frame(entity) {
+            Some(frame) => local_pose(&frame, translation, body.rotation),
+            None => (translation, body.rotation),
+        };
+        if transform.translation != translation || transform.rotation != rotation {
             transform.translation = translation;
-            transform.rotation = body.rotation;
+            transform.rotation = rotation;
         }
         if body.motion == Motion::Dynamic {
             if let Some(mut v) = linear {
@@ -78,4 +86,16 @@ pub fn write_back(
             }
         }
     }
+}
+
+/// The local translation and rotation that place a child at world `translation`, `rotation`
+/// under a parent whose world transform is `frame`: `frame^-1 * world`, the inverse of Bevy's
+/// `parent * local` (`t = t_p + R_p (s_p * t_l)`, `R = R_p R_l`). Exact up to rounding for a
+/// parent of uniform scale; under a non-uniformly scaled and turned parent a turning child is
+/// sheared, which a `Transform` cannot hold, and only its translation is exact.
+pub fn local_pose(frame: &Transform, translation: Vec3, rotation: Quat) -> (Vec3, Quat) {
+    let inverse = frame.rotation.inverse();
+    let local_translation = (inverse * (translation - frame.translation)) / frame.scale;
+    let local_rotation = (inverse * rotation).normalize();
+    (local_translation, local_rotation)
 }
