@@ -229,7 +229,10 @@ pub struct Forces {
 }
 
 impl ForcesItem<'_, '_> {
-    /// The body's centre of mass, world frame, m.
+    /// The body's centre of mass, world frame, m, from its `Transform`: for a top-level body
+    /// the world pose. Known limit: for a body with a parent (see the README's Hierarchies and
+    /// scale) it is the local pose, so a force at a point on such a body turns it about the
+    /// wrong point; `apply_force` and the impulses without a point are unaffected.
     pub fn center_of_mass(&self) -> Vec3 {
         self.transform.translation
             + self.transform.rotation.normalize() * self.computed.local_center_of_mass
