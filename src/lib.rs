@@ -11,6 +11,7 @@ pub mod messages;
 pub mod pipeline;
 pub mod scenes;
 pub mod schedule;
+pub mod spatial_query;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;

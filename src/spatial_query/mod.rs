@@ -1,0 +1,3 @@
+//! Spatial queries.
+
+pub mod exact;
