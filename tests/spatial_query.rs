@@ -933,7 +933,8 @@ fn points_project_and_intersect_as_geometry_says() {
 /// direction +x on an entity at (0, 5, 0) turned -90 degrees about z start at (0, 4.5, 0)
 /// going down, hitting a ball of 0.5 m at y = 2 after 2 m and the ground after 4.5 m. Moved to
 /// x = 3, after the next step only the ground. On a falling body it follows the body and, by
-/// default, ignores the body's own collider.
+/// default, ignores the body's own collider; a game system in `PhysicsSystems::Last` reads the
+/// hits of the step that just ran.
 #[test]
 fn ray_casters_cast_from_their_entity_after_every_step() {
     let mut app = headless_app(60.0);
@@ -967,6 +968,20 @@ fn ray_casters_cast_from_their_entity_after_every_step() {
             RayCaster::new(Vec3::ZERO, Dir3::NEG_Y).with_ignore_self(false),
         ))
         .id();
+    // A game system in `PhysicsSystems::Last` reads the hits of the step that just ran: the
+    // falling ball's ray meets the ground its height below.
+    #[derive(Resource, Default)]
+    struct InLast(Vec<(f32, f32)>);
+    app.init_resource::<InLast>();
+    app.add_systems(
+        FixedPostUpdate,
+        (move |casters: Query<(&RayHits, &Transform)>, mut seen: ResMut<InLast>| {
+            if let Ok((hits, at)) = casters.get(faller) {
+                seen.0.push((hits[0].distance, at.translation.y));
+            }
+        })
+        .in_set(PhysicsSystems::Last),
+    );
     run_steps(&mut app, 1);
     let hits = |app: &App, e: Entity| -> Vec<(Entity, f32)> {
         app.world()
@@ -1016,6 +1031,14 @@ fn ray_casters_cast_from_their_entity_after_every_step() {
         assert_eq!(down[0].0, ground);
         assert!((down[0].1 - y).abs() <= 1e-5, "{down:?} at y = {y}");
         assert_eq!(hits(&app, faller_self)[0], (faller_self, 0.0));
+    }
+    let in_last = &app.world().resource::<InLast>().0;
+    assert_eq!(in_last.len(), 11);
+    for &(distance, y) in in_last {
+        assert!(
+            (distance - y).abs() <= 1e-5,
+            "in Last: {distance} at y = {y}"
+        );
     }
     // Disabled, it clears its hits.
     app.world_mut().get_mut::<RayCaster>(eye).unwrap().disable();

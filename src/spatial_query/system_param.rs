@@ -37,7 +37,9 @@ use crate::dynamics::{Quarantined, RigidBodyDisabled};
 /// physics pose, not where it is drawn. A body despawned since, or given
 /// [`ColliderDisabled`], [`RigidBodyDisabled`] or [`Quarantined`] since, or whose collider was
 /// removed, is not hit at once. Disabled and quarantined colliders are never hit; sensors are,
-/// like any collider (leave their layers out of the filter's mask to skip them).
+/// like any collider (leave their layers out of the filter's mask to skip them). (With a
+/// replacement broad phase the tree stays empty: every body of the last step is then tested
+/// directly, and a sleeping body that sat that step out is not found.)
 ///
 /// # Order and determinism
 ///
