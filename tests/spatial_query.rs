@@ -589,7 +589,6 @@ fn every_query_equals_a_loop_over_every_collider() {
     // The queries found things (a test of empty answers would prove nothing).
     // (Measured: 208 ray hits, 117 shape hits, 87 points inside, 62 shapes and 251 boxes
     // overlapping, 120 of them the ground's.)
-    eprintln!("{checked:?}");
     assert!(checked.stragglers >= 3, "{checked:?}");
     assert!(
         checked.ray_hits >= 150 && checked.shape_hits >= 80,

@@ -64,7 +64,8 @@ pub(crate) fn widened(aabb: &Aabb) -> Aabb {
 #[derive(Resource, Default)]
 pub struct SpatialQueryColliders {
     /// By leaf id of the tree: the record of the body last written at that leaf (a leaf reused by
-    /// another body is checked against [`BroadPhaseTree::entity`]).
+    /// another body is checked against [`BroadPhaseTree::entity`]; a body removed from the tree
+    /// keeps its record, and its shape alive, until its leaf id is reused).
     records: Vec<Option<QueryCollider>>,
     /// Leaf ids whose record is a straggler, sorted by entity.
     stragglers: Vec<u32>,
