@@ -1200,6 +1200,11 @@ fn bad_query_input_gives_no_hit() {
 fn bad_caster_input_is_logged_once_per_caster() {
     common::capture_logs();
     let mut app = headless_app(60.0);
+    // The casters run in `FixedPostUpdate`; on one thread, the test's, so that the captured
+    // logs (per thread) see them whatever Bevy's executor.
+    app.edit_schedule(FixedPostUpdate, |schedule| {
+        schedule.set_executor(bevy::ecs::schedule::SingleThreadedExecutor::new());
+    });
     let w = app.world_mut();
     spawn_static(w, Collider::half_space(Vec3::Y), Transform::IDENTITY);
     let down = |origin: Vec3| RayCaster::new(origin, Dir3::NEG_Y);
