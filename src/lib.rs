@@ -11,6 +11,7 @@ pub mod messages;
 pub mod pipeline;
 pub mod scenes;
 pub mod schedule;
+pub mod spatial_query;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;
@@ -46,6 +47,11 @@ pub mod prelude {
         CollisionEnd, CollisionEnded, CollisionStart, CollisionStarted, Impact,
     };
     pub use crate::schedule::{PhysicsSchedule, PhysicsSystems, PhysicsTime};
+    pub use crate::spatial_query::{
+        ColliderAabb, PointProjection, RayCaster, RayHitData, RayHits, ShapeCastConfig,
+        ShapeCaster, ShapeHitData, ShapeHits, SpatialQuery, SpatialQueryFilter, SpatialQueryPlugin,
+        SpatialQuerySystems,
+    };
 }
 
 /// All of impact3d's plugins. `PhysicsPlugins::default()` steps physics in `FixedPostUpdate`;
@@ -94,6 +100,7 @@ impl PluginGroup for PhysicsPlugins {
             .add(pipeline::WriteBackPlugin)
             .add(pipeline::SleepPlugin)
             .add(pipeline::MessagesPlugin)
+            .add(spatial_query::SpatialQueryPlugin::new(self.schedule))
             .add(interpolation::InterpolationPlugin::default())
     }
 }

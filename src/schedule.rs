@@ -11,6 +11,7 @@
 //! | [`PhysicsSystems::WriteBack`] | `Transform`, `LinearVelocity`, `AngularVelocity` |
 //! | [`PhysicsSystems::Sleep`] | resting islands fall asleep; woken ones lose their marker |
 //! | [`PhysicsSystems::Messages`] | `Impact`, `CollisionStarted`, `CollisionEnded`; `CollisionStart` and `CollisionEnd` (messages and entity events) for bodies with `CollisionEventsEnabled`; `CollidingEntities` |
+//! | [`PhysicsSystems::SpatialQuery`] | each body's collider at its pose at the end of the step, for [`SpatialQuery`](crate::spatial_query::SpatialQuery) |
 
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
@@ -60,6 +61,9 @@ pub enum PhysicsSystems {
     Sleep,
     /// Messages.
     Messages,
+    /// The world spatial queries see brought up to date: each body's collider at its pose at
+    /// the end of the step ([`crate::spatial_query`]).
+    SpatialQuery,
 }
 
 /// Sets up [`PhysicsSchedule`] and runs it from `schedule`.
@@ -81,6 +85,7 @@ impl Plugin for PhysicsSchedulePlugin {
                 PhysicsSystems::WriteBack,
                 PhysicsSystems::Sleep,
                 PhysicsSystems::Messages,
+                PhysicsSystems::SpatialQuery,
             )
                 .chain(),
         );

@@ -77,6 +77,16 @@ impl Collider {
         }
     }
 
+    /// A point at the body's origin (a sphere of radius 0): the default shape of a
+    /// [`ShapeCaster`](crate::spatial_query::ShapeCaster), whose cast is then a ray's. Not for
+    /// bodies: it has no mass.
+    pub(crate) fn point() -> Self {
+        Collider {
+            shape: SharedShape::ball(0.0),
+            error: None,
+        }
+    }
+
     /// A sphere of `radius` m centred at the body's origin.
     pub fn sphere(radius: f32) -> Self {
         let error = positive("sphere radius", radius);

@@ -184,6 +184,26 @@ impl PhysicsState {
         &self.reporting
     }
 
+    /// Each body's collider shape (in metres), in the order of [`entities`](Self::entities).
+    pub(crate) fn shapes(&self) -> &[SharedShape] {
+        &self.shapes
+    }
+
+    /// Each body's collider pose (its origin) at the start of the step.
+    pub(crate) fn poses(&self) -> &[Pose] {
+        &self.poses
+    }
+
+    /// Each body's local centre of mass (zero for bodies that are not dynamic).
+    pub(crate) fn local_com(&self) -> &[Vec3] {
+        &self.local_com
+    }
+
+    /// Whether each body's collider takes part in contacts (no `ColliderDisabled`).
+    pub(crate) fn collides(&self) -> &[bool] {
+        &self.collides
+    }
+
     /// Body `k` takes part in contacts: dynamic, or asleep (a sleeping body's pairs are kept, so
     /// sleep does not end collisions).
     fn live(&self, k: usize) -> bool {
