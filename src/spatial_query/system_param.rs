@@ -108,6 +108,63 @@ impl SpatialQuery<'_, '_> {
         filter.test(c.entity, c.layers) && self.live.contains(c.entity)
     }
 
+    /// The nearest hit (of least entity among equally near ones) of a cast on the colliders
+    /// `filter` and `predicate` admit: `hit` tests one collider, `reaches(aabb, bound)` whether
+    /// the cast enters a box within `bound` (m), which shrinks to the nearest hit so far.
+    fn nearest_hit<H: Hit>(
+        &self,
+        filter: &SpatialQueryFilter,
+        predicate: &dyn Fn(Entity) -> bool,
+        max: f32,
+        reaches: impl Fn(&Aabb, f32) -> bool,
+        hit: impl Fn(&QueryCollider) -> Option<H>,
+    ) -> Option<H> {
+        let bound = Cell::new(max);
+        let mut best: Option<H> = None;
+        self.colliders.candidates(
+            &self.tree,
+            |aabb| reaches(aabb, bound.get()),
+            |c| {
+                if !self.accepts(c, filter) || !predicate(c.entity) {
+                    return;
+                }
+                if let Some(h) = hit(c)
+                    && best.as_ref().is_none_or(|b| {
+                        let ((d, e), (bd, be)) = (h.order(), b.order());
+                        closer(d, e, bd, be)
+                    })
+                {
+                    bound.set(h.order().0);
+                    best = Some(h);
+                }
+            },
+        );
+        best
+    }
+
+    /// Every hit of a cast on the colliders `filter` admits, sorted by distance then entity:
+    /// `hit` tests one collider, `reaches` whether the cast enters a box.
+    fn sorted_hits<H: Hit>(
+        &self,
+        filter: &SpatialQueryFilter,
+        reaches: impl Fn(&Aabb) -> bool,
+        hit: impl Fn(&QueryCollider) -> Option<H>,
+    ) -> Vec<H> {
+        let mut hits = Vec::new();
+        self.colliders.candidates(&self.tree, reaches, |c| {
+            if self.accepts(c, filter)
+                && let Some(h) = hit(c)
+            {
+                hits.push(h);
+            }
+        });
+        hits.sort_by(|a, b| {
+            let ((da, ea), (db, eb)) = (a.order(), b.order());
+            da.total_cmp(&db).then(ea.cmp(&eb))
+        });
+        hits
+    }
+
     /// The first hit of a ray from `origin` (m) along `direction` within `max_distance` (m), on
     /// the colliders `filter` admits. With `solid`, a ray starting inside a collider hits it at
     /// distance 0; otherwise colliders are hollow and it hits where it leaves.
@@ -134,24 +191,13 @@ impl SpatialQuery<'_, '_> {
         predicate: &dyn Fn(Entity) -> bool,
     ) -> Option<RayHitData> {
         let (ray, max) = ray_input(origin, direction.as_vec3(), max_distance).ok()?;
-        let bound = Cell::new(max);
-        let mut best: Option<RayHitData> = None;
-        self.colliders.candidates(
-            &self.tree,
-            |aabb| aabb.cast_local_ray(&ray, bound.get(), true).is_some(),
-            |c| {
-                if !self.accepts(c, filter) || !predicate(c.entity) {
-                    return;
-                }
-                if let Some(hit) = ray_hit(c, &ray, max, solid)
-                    && best.is_none_or(|b| closer(hit.distance, hit.entity, b.distance, b.entity))
-                {
-                    bound.set(hit.distance);
-                    best = Some(hit);
-                }
-            },
-        );
-        best
+        self.nearest_hit(
+            filter,
+            predicate,
+            max,
+            |aabb, bound| aabb.cast_local_ray(&ray, bound, true).is_some(),
+            |c| ray_hit(c, &ray, max, solid),
+        )
     }
 
     /// Every hit of a ray (see [`cast_ray`](Self::cast_ray)), nearest first (then by entity),
@@ -200,24 +246,11 @@ impl SpatialQuery<'_, '_> {
         let Ok((ray, max)) = ray_input(origin, direction.as_vec3(), max_distance) else {
             return Vec::new();
         };
-        let mut hits = Vec::new();
-        self.colliders.candidates(
-            &self.tree,
+        self.sorted_hits(
+            filter,
             |aabb| aabb.cast_local_ray(&ray, max, true).is_some(),
-            |c| {
-                if self.accepts(c, filter)
-                    && let Some(hit) = ray_hit(c, &ray, max, solid)
-                {
-                    hits.push(hit);
-                }
-            },
-        );
-        hits.sort_by(|a, b| {
-            a.distance
-                .total_cmp(&b.distance)
-                .then(a.entity.cmp(&b.entity))
-        });
-        hits
+            |c| ray_hit(c, &ray, max, solid),
+        )
     }
 
     /// The first collider `shape` hits when it moves from `origin` (m), turned by
@@ -258,24 +291,13 @@ impl SpatialQuery<'_, '_> {
     ) -> Option<ShapeHitData> {
         let cast =
             ShapeCast::new(shape, origin, shape_rotation, direction.as_vec3(), config).ok()?;
-        let bound = Cell::new(cast.options.max_time_of_impact);
-        let mut best: Option<ShapeHitData> = None;
-        self.colliders.candidates(
-            &self.tree,
-            |aabb| cast.sweeps(aabb, bound.get()),
-            |c| {
-                if !self.accepts(c, filter) || !predicate(c.entity) {
-                    return;
-                }
-                if let Some(hit) = cast.hit(c)
-                    && best.is_none_or(|b| closer(hit.distance, hit.entity, b.distance, b.entity))
-                {
-                    bound.set(hit.distance);
-                    best = Some(hit);
-                }
-            },
-        );
-        best
+        self.nearest_hit(
+            filter,
+            predicate,
+            cast.options.max_time_of_impact,
+            |aabb, bound| cast.sweeps(aabb, bound),
+            |c| cast.hit(c),
+        )
     }
 
     /// Every collider `shape` hits when cast (see [`cast_shape`](Self::cast_shape)), nearest
@@ -333,24 +355,7 @@ impl SpatialQuery<'_, '_> {
             return Vec::new();
         };
         let max = cast.options.max_time_of_impact;
-        let mut hits = Vec::new();
-        self.colliders.candidates(
-            &self.tree,
-            |aabb| cast.sweeps(aabb, max),
-            |c| {
-                if self.accepts(c, filter)
-                    && let Some(hit) = cast.hit(c)
-                {
-                    hits.push(hit);
-                }
-            },
-        );
-        hits.sort_by(|a, b| {
-            a.distance
-                .total_cmp(&b.distance)
-                .then(a.entity.cmp(&b.entity))
-        });
-        hits
+        self.sorted_hits(filter, |aabb| cast.sweeps(aabb, max), |c| cast.hit(c))
     }
 
     /// The closest point to `point` (m) on the colliders `filter` admits (of least entity among
@@ -532,6 +537,23 @@ impl SpatialQuery<'_, '_> {
                 break;
             }
         }
+    }
+}
+
+/// A cast's hit, ordered by distance (m) then entity.
+trait Hit {
+    fn order(&self) -> (f32, Entity);
+}
+
+impl Hit for RayHitData {
+    fn order(&self) -> (f32, Entity) {
+        (self.distance, self.entity)
+    }
+}
+
+impl Hit for ShapeHitData {
+    fn order(&self) -> (f32, Entity) {
+        (self.distance, self.entity)
     }
 }
 
