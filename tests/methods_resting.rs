@@ -287,8 +287,9 @@ fn stacks_stand_with_the_default_solver_awake() {
 /// sideways, and the column falls (the soft step's compliance makes it grow exponentially);
 /// propagation also has no position correction. Jacobi solves every corner from the same
 /// velocities and keeps the column exactly symmetric (no sideways move at all), but with mass
-/// splitting 20 iterations do not hold the weight: the column sinks and Baumgarte throws it back
-/// up, the top cube moving more than 0.3 m vertically (pinned; measured about 1 m).
+/// splitting 20 iterations do not hold the weight: the column sinks, the top cube more than
+/// 0.1 m (pinned; measured 0.19 m). Before split impulses, the push-out's velocity threw the
+/// column back up and the top cube moved about 1 m.
 #[test]
 fn stacks_fall_with_the_other_methods() {
     for method in [
@@ -305,7 +306,7 @@ fn stacks_fall_with_the_other_methods() {
         "Jacobi stays symmetric: {}",
         run.spread
     );
-    assert!(run.moved > 0.3, "Jacobi: the top cube moved {}", run.moved);
+    assert!(run.moved > 0.1, "Jacobi: the top cube moved {}", run.moved);
 }
 
 /// Case 12, the pyramid of base 10 with the true default (sleeping on): the top cube moves less
@@ -439,9 +440,11 @@ fn heavy_on_light_1000_default_with_friction() {
 /// sweep bound; where the rest of it goes depends on which contact is resolved last: into the
 /// light box 0.79 m at 100:1 and 3.9 cm at 1000:1 before the events were solved exactly, the
 /// rest into the ground); the soft step squeezes the light box out (the
-/// heavy box ends on the ground, penetration above 0.9 m); Jacobi with Baumgarte launches the
-/// heavy box off the light one (the light box ends above its start: negative ground
-/// penetration never recovered, largest speed above 5 m/s).
+/// heavy box ends on the ground, penetration above 0.9 m); Jacobi (20 iterations with mass
+/// splitting) does not hold the weight: the heavy box sinks into the light one and the light one
+/// into the ground (pinned above 0.1 m and 0.25 m; measured 0.14 / 0.30 m at 100:1 and
+/// 0.24 / 0.87 m at 1000:1). Before its push-out was a pseudo-velocity (split impulses), the
+/// push-out's velocity launched the heavy box off the light one (largest speed above 5 m/s).
 #[test]
 fn heavy_on_light_other_methods_fail() {
     for ratio in [100.0, 1000.0] {
@@ -455,7 +458,11 @@ fn heavy_on_light_other_methods_fail() {
             pen + ground > 0.5,
             "Propagation {ratio}: penetration {pen}, into the ground {ground}"
         );
-        let (_, _, vmax, _, _) = heavy_on_light(app(60.0, SolverMethod::Jacobi), ratio, 10.0);
-        assert!(vmax > 5.0, "Jacobi {ratio}: largest speed {vmax}");
+        let (pen, ground, _, _, finite) =
+            heavy_on_light(app(60.0, SolverMethod::Jacobi), ratio, 10.0);
+        assert!(
+            finite && pen > 0.1 && ground > 0.25,
+            "Jacobi {ratio}: penetration {pen}, into the ground {ground}"
+        );
     }
 }

@@ -135,6 +135,9 @@ fn sweep(method: SolverMethod, hz: f64, substeps: u32) -> Sweep {
             out.rise = out.rise.max(y - start[k]);
             // A tilted cube reaches lower than its half height; its centre stays above the
             // ground by at least that unless it sinks.
+            if half[k] - y > out.depth && std::env::var("PROBE").is_ok() {
+                eprintln!("PROBE body {k} depth {} y {y}", half[k] - y);
+            }
             out.depth = out.depth.max(half[k] - y);
         }
         out.fast_x = out.fast_x.max(position(&app, fast).x);
@@ -246,13 +249,12 @@ fn step_sweep_sequential_impulses() {
     }
 }
 
-/// Case 14, Jacobi: its unconverged column sinks up to 7.2 cm at 1/15 s x 1 (pinned below
+/// Case 14, Jacobi: its unconverged column sinks up to 7.8 cm at 1/15 s x 1 (pinned below
 /// 8 cm), and the fast sphere is stopped up to 2.4 cm into the 1 cm wall but never through it.
-/// Energy: no gain beyond 1e-4 J except at 1/30 s x 1, where Baumgarte pushes out the 1.9 cm its
-/// unconverged column sank and the push leaves the cubes 3 mm above their start, 0.09 J: that
-/// is push-out, bounded by the work of lifting the column's weight (30 N) through the depth it
-/// sank, and the rise by that depth. (Before restitution targets were taken before the step's
-/// gravity it also gained 1.97 J at 1/15 s x 1, from gravity's step taken for an impact.)
+/// Energy: no gain beyond 1e-4 J and no rise at any step. (While its push-out was a velocity
+/// (Baumgarte), pushing out the 1.9 cm its column sank at 1/30 s x 1 left the cubes 3 mm above
+/// their start with 0.09 J gained; the split impulses' pseudo-velocity moves them without
+/// leaving any speed.)
 #[test]
 fn step_sweep_jacobi() {
     let all = run_sweep(SolverMethod::Jacobi);
@@ -260,10 +262,6 @@ fn step_sweep_jacobi() {
     for (hz, n, s) in all {
         let what = format!("{hz} Hz x {n}: {s:?}");
         assert!(s.depth <= 0.08, "{what}");
-        if s.depth > 0.01 {
-            assert!(s.gain <= 30.0 * s.depth && s.rise <= s.depth, "{what}");
-        } else {
-            assert!(s.gain <= 1e-4 && s.rise <= 1e-4, "{what}");
-        }
+        assert!(s.gain <= 1e-4 && s.rise <= 1e-4, "{what}");
     }
 }

@@ -372,12 +372,8 @@ pub fn integrate_positions(bodies: &mut [SolverBody], gravity: Vec3, h: f32) {
     }
 }
 
-/// Returns mutable references to two distinct bodies.
-pub(crate) fn pair_mut(
-    bodies: &mut [SolverBody],
-    a: usize,
-    b: usize,
-) -> (&mut SolverBody, &mut SolverBody) {
+/// Returns mutable references to two distinct bodies (or per-body entries).
+pub(crate) fn pair_mut<T>(bodies: &mut [T], a: usize, b: usize) -> (&mut T, &mut T) {
     debug_assert_ne!(a, b);
     if a < b {
         let (lo, hi) = bodies.split_at_mut(b);

@@ -47,8 +47,10 @@ pub enum SolverMethod {
     Propagation,
     /// Projected Gauss-Seidel with accumulated impulses clamped at >= 0, warm starting,
     /// restitution targets for the rows whose gap closes within the substep, from their
-    /// approach then (see `sequential_impulses::arrival`), and Baumgarte position correction. Stages per
-    /// substep: gravity, warm start, `iterations` sweeps, integrate.
+    /// approach then (see `sequential_impulses::arrival`), and split-impulse position
+    /// correction (a pseudo-velocity that moves the bodies and is dropped, see
+    /// [`PushOut`](super::push_out::PushOut)). Stages per substep: gravity, warm start,
+    /// `iterations` sweeps, push-out, integrate.
     SequentialImpulses,
     /// Box2D v3's soft step: per substep gravity, warm start, soft solve, integrate positions,
     /// relax; then one restitution pass using the approach speed recorded at preparation.
@@ -110,11 +112,15 @@ pub struct SolverConfig {
     pub contact_hertz: f32,
     /// Soft contact damping ratio, dimensionless. Default 10.
     pub contact_damping_ratio: f32,
-    /// Largest speed at which soft contacts push penetration out, m/s. Default 3.
+    /// Largest speed at which contacts push penetration out, m/s (soft contacts; the
+    /// pseudo-velocity of sequential impulses and Jacobi). Default 3.
     pub max_push_out_speed: f32,
-    /// Baumgarte factor of sequential impulses and Jacobi, in [0, 1]. Default 0.2.
+    /// Position-correction factor of sequential impulses and Jacobi, in [0, 1]: the fraction of
+    /// the penetration beyond `linear_slop` a substep pushes out, by a pseudo-velocity that
+    /// moves the bodies and is then dropped (split impulses: pushing out adds no kinetic
+    /// energy). Default 0.2.
     pub baumgarte: f32,
-    /// Penetration Baumgarte leaves alone, m. Default 0.005.
+    /// Penetration the position correction leaves alone, m. Default 0.005.
     pub linear_slop: f32,
     /// Start each step from the previous step's impulses. Default true.
     pub warm_start: bool,

@@ -81,7 +81,7 @@ pub fn jacobi_sweep(
 }
 
 /// Effective mass of a row with each body's share split `count` ways.
-fn split_mass(c: &ContactConstraint, bodies: &[SolverBody], counts: &[u32]) -> f32 {
+pub(super) fn split_mass(c: &ContactConstraint, bodies: &[SolverBody], counts: &[u32]) -> f32 {
     let (na, nb) = (
         counts[c.body_a].max(1) as f32,
         counts[c.body_b].max(1) as f32,

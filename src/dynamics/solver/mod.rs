@@ -22,6 +22,7 @@ pub mod jacobi;
 mod lcp;
 pub mod ledger;
 pub mod propagation;
+pub mod push_out;
 pub mod sequential_impulses;
 pub mod soft_step;
 
