@@ -617,7 +617,9 @@ fn trimesh_floor() -> Collider {
 ///   store at most `n M |g| delta`; the allowance is 4 times that ("a few times the steady
 ///   sink"). In a world without gravity it is zero: nothing is carried.
 /// - **Push-out** (overlapping spawns): the soft methods push penetration out at no more than
-///   `max_push_out_speed` (3 m/s) relative speed. An impulse that brings a contact's normal
+///   `max_push_out_speed` (3 m/s) relative speed (sequential impulses and Jacobi push out by a
+///   pseudo-velocity that leaves no speed, and propagation does not push out: for them the
+///   kinetic part is zero). An impulse that brings a contact's normal
 ///   velocity from `v_b` to `v_a <= cap` changes the pair's kinetic energy by
 ///   `(v_a^2 - v_b^2) / (2 K) <= m_eff cap^2 / 2 <= m cap^2 / 2` for either body's mass `m`,
 ///   so the kinetic energy push-out can give is at most `sum m cap^2 / 2` over the overlapping
@@ -643,7 +645,15 @@ impl Allowance {
         let soft = 4.0 * states.len() as f64 * total_mass * g * delta;
         let push_out = if world.overlapping {
             let (depth, overlapping) = world.overlap_depth();
-            let cap = config.max_push_out_speed as f64;
+            // Sequential impulses and Jacobi push out with a pseudo-velocity that leaves no
+            // speed (split impulses), propagation not at all: only the soft contacts' push-out
+            // gives kinetic energy.
+            let soft = matches!(config.method, SolverMethod::Hybrid | SolverMethod::SoftStep);
+            let cap = if soft {
+                config.max_push_out_speed as f64
+            } else {
+                0.0
+            };
             let kinetic: f64 = states
                 .iter()
                 .zip(&overlapping)
