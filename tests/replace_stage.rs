@@ -4,12 +4,14 @@
 //! broad phase's tree as bodies leave (despawned, collider removed) and arrive, awake and
 //! asleep.
 
+mod common;
+
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
+use common::mixed_pour;
 use impact3d::collision::BroadPhaseTree;
 use impact3d::pipeline::{BroadPhasePlugin, CandidatePairs, PhysicsState, update_broad_phase};
 use impact3d::prelude::*;
-use impact3d::scenes::{self, Pour, PourBodies};
+use impact3d::scenes;
 use parry3d::bounding_volume::BoundingVolume;
 
 /// Every pair of bodies, at least one of them active, whose boxes overlap: the answer a broad
@@ -45,25 +47,6 @@ impl Plugin for AllPairsBroadPhase {
     }
 }
 
-/// A headless app at 60 Hz, sleeping off, with `plugins`, and 300 mixed bodies (spheres,
-/// boxes, capsules, hulls) poured into a walled box with friction 0.5.
-fn pour(plugins: impl PluginGroup) -> (App, Vec<Entity>) {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, plugins))
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-        .insert_resource(SleepConfig {
-            enabled: false,
-            ..default()
-        });
-    app.update();
-    let spawned = scenes::pour_into(
-        app.world_mut(),
-        &Pour::walled_box(300, PourBodies::Mixed, 1.0, 0.5),
-    );
-    (app, spawned.bodies)
-}
-
 /// The same pour with the built-in broad phase and with the all-pairs one: the same candidate
 /// pairs every step, and bit-identical poses and velocities after 2 s (the landing and the
 /// pile forming), since the solve sees the same pairs in the same order. Sleeping is off: the
@@ -71,13 +54,14 @@ fn pour(plugins: impl PluginGroup) -> (App, Vec<Entity>) {
 /// replacement leaves out.
 #[test]
 fn all_pairs_broad_phase_replaces_the_built_in_one() {
-    let (mut built_in, a) = pour(PhysicsPlugins::default());
-    let (mut replaced, b) = pour(
+    let (mut built_in, a) = mixed_pour((MinimalPlugins, PhysicsPlugins::default()));
+    let (mut replaced, b) = mixed_pour((
+        MinimalPlugins,
         PhysicsPlugins::default()
             .build()
             .disable::<BroadPhasePlugin>()
             .add(AllPairsBroadPhase),
-    );
+    ));
     let mut most = 0;
     for step in 0..120 {
         built_in.update();
@@ -110,13 +94,14 @@ fn all_pairs_broad_phase_replaces_the_built_in_one() {
 /// all-pairs ones every step, so poses and velocities stay bit-identical.
 #[test]
 fn all_pairs_broad_phase_matches_as_bodies_leave_and_arrive() {
-    let (mut built_in, a) = pour(PhysicsPlugins::default());
-    let (mut replaced, b) = pour(
+    let (mut built_in, a) = mixed_pour((MinimalPlugins, PhysicsPlugins::default()));
+    let (mut replaced, b) = mixed_pour((
+        MinimalPlugins,
         PhysicsPlugins::default()
             .build()
             .disable::<BroadPhasePlugin>()
             .add(AllPairsBroadPhase),
-    );
+    ));
     let shape = |k: usize| match k % 3 {
         0 => Collider::sphere(0.5),
         1 => Collider::cuboid(0.5, 0.5, 0.5),
