@@ -35,17 +35,11 @@ impl ChildPart {
     /// The same collider with the same inputs (the same shape allocation, bit-equal numbers).
     fn same(&self, other: &ChildPart) -> bool {
         let bits = |t: &Transform| {
-            let mut out = [0u32; 10];
-            let values = t
-                .translation
-                .to_array()
-                .into_iter()
-                .chain(t.rotation.to_array())
-                .chain(t.scale.to_array());
-            for (o, x) in out.iter_mut().zip(values) {
-                *o = x.to_bits();
-            }
-            out
+            (
+                t.translation.to_array().map(f32::to_bits),
+                t.rotation.to_array().map(f32::to_bits),
+                t.scale.to_array().map(f32::to_bits),
+            )
         };
         self.collider == other.collider
             && std::sync::Arc::ptr_eq(&self.shape.0, &other.shape.0)

@@ -3,30 +3,22 @@
 
 use bevy::math::Vec3;
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
-use parry3d::math::Pose;
 use parry3d::partitioning::TraversalAction;
-use parry3d::query::{Ray, RayCast, ShapeCastOptions};
-use parry3d::shape::{Shape, Triangle};
+use parry3d::query::{Ray, RayCast};
+use parry3d::shape::Triangle;
 
 use super::convex::convex_cast;
 use super::newton::tolerance;
-use super::{CastHit, nearest};
+use super::{CastHit, ShapeCast, nearest};
 
 /// A convex shape cast against the triangles of a triangle mesh or a heightfield that its
 /// swept box meets.
-pub(super) fn triangles_cast(
-    pose1: &Pose,
-    shape1: &dyn Shape,
-    pose2: &Pose,
-    dir: Vec3,
-    shape2: &dyn Shape,
-    options: &ShapeCastOptions,
-) -> Option<CastHit> {
+pub(super) fn triangles_cast(cast: &ShapeCast) -> Option<CastHit> {
+    let (shape1, options) = (cast.shape1, cast.options);
     // The sweep in the mesh's frame: the cast shape's box, grown by the target distance,
     // moving along the local direction.
-    let local2 = pose1.inv_mul(pose2);
-    let local_dir = pose1.rotation.inverse() * dir;
-    let aabb = shape2.compute_aabb(&local2);
+    let (local2, local_dir) = cast.in_collider_frame();
+    let aabb = cast.shape2.compute_aabb(&local2);
     let reach = 0.5 * (aabb.maxs - aabb.mins)
         + Vec3::splat(options.target_distance + tolerance(aabb.maxs.abs().max_element()));
     let center = Ray::new(aabb.center(), local_dir);
@@ -60,7 +52,7 @@ pub(super) fn triangles_cast(
     nearest(
         triangles
             .iter()
-            .map(|(_, t)| convex_cast(pose1, t, pose2, dir, shape2, options)),
+            .map(|(_, t)| convex_cast(&ShapeCast { shape1: t, ..*cast })),
     )
 }
 

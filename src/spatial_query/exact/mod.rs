@@ -120,15 +120,23 @@ pub fn cast_shape(
             .map(|(p, s)| (*pose2 * *p, s.as_ref()));
         return nearest(parts.map(|(p2, s2)| cast_shape(pose1, shape1, &p2, dir, s2, options)));
     }
+    let cast = ShapeCast {
+        pose1,
+        shape1,
+        pose2,
+        dir,
+        shape2,
+        options,
+    };
     let closed_form = t1 == ShapeType::HalfSpace
         || t2 == ShapeType::HalfSpace
         || (t1 == ShapeType::Ball && t2 == ShapeType::Ball);
     if !closed_form && shape2.as_support_map().is_some() {
         if shape1.as_support_map().is_some() {
-            return convex_cast(pose1, shape1, pose2, dir, shape2, options);
+            return convex_cast(&cast);
         }
         if t1 == ShapeType::TriMesh || t1 == ShapeType::HeightField {
-            return triangles_cast(pose1, shape1, pose2, dir, shape2, options);
+            return triangles_cast(&cast);
         }
     }
     let hit =
@@ -140,6 +148,28 @@ pub fn cast_shape(
         normal1: pose1.rotation * hit.normal1,
         normal2: pose2.rotation * hit.normal2,
     })
+}
+
+/// A shape cast as [`cast_shape`] takes it: `shape2` at `pose2` moving along the unit direction
+/// `dir` against the collider `shape1` at `pose1`, with parry's options.
+#[derive(Clone, Copy)]
+struct ShapeCast<'a> {
+    pose1: &'a Pose,
+    shape1: &'a dyn Shape,
+    pose2: &'a Pose,
+    dir: Vec3,
+    shape2: &'a dyn Shape,
+    options: &'a ShapeCastOptions,
+}
+
+impl ShapeCast<'_> {
+    /// The cast shape's pose and direction of motion in the collider's frame.
+    fn in_collider_frame(&self) -> (Pose, Vec3) {
+        (
+            self.pose1.inv_mul(self.pose2),
+            self.pose1.rotation.inverse() * self.dir,
+        )
+    }
 }
 
 /// The nearest of several hits (the first of equally near ones).
