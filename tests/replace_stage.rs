@@ -47,6 +47,31 @@ impl Plugin for AllPairsBroadPhase {
     }
 }
 
+/// The mixed pour twice: with the built-in broad phase, and with the all-pairs one in its
+/// place. Each app with its bodies.
+fn pours_with_each_broad_phase() -> ((App, Vec<Entity>), (App, Vec<Entity>)) {
+    let built_in = mixed_pour((MinimalPlugins, PhysicsPlugins::default()));
+    let replaced = mixed_pour((
+        MinimalPlugins,
+        PhysicsPlugins::default()
+            .build()
+            .disable::<BroadPhasePlugin>()
+            .add(AllPairsBroadPhase),
+    ));
+    (built_in, replaced)
+}
+
+/// Steps both apps once and asserts that their broad phases found the same candidate pairs;
+/// returns how many.
+fn step_both(built_in: &mut App, replaced: &mut App, step: u32) -> usize {
+    built_in.update();
+    replaced.update();
+    let pairs = |app: &App| app.world().resource::<CandidatePairs>().pairs().to_vec();
+    let (p, q) = (pairs(built_in), pairs(replaced));
+    assert_eq!(p, q, "step {step}: the candidate pairs differ");
+    p.len()
+}
+
 /// The same pour with the built-in broad phase and with the all-pairs one: the same candidate
 /// pairs every step, and bit-identical poses and velocities after 2 s (the landing and the
 /// pile forming), since the solve sees the same pairs in the same order. Sleeping is off: the
@@ -54,22 +79,10 @@ impl Plugin for AllPairsBroadPhase {
 /// replacement leaves out.
 #[test]
 fn all_pairs_broad_phase_replaces_the_built_in_one() {
-    let (mut built_in, a) = mixed_pour((MinimalPlugins, PhysicsPlugins::default()));
-    let (mut replaced, b) = mixed_pour((
-        MinimalPlugins,
-        PhysicsPlugins::default()
-            .build()
-            .disable::<BroadPhasePlugin>()
-            .add(AllPairsBroadPhase),
-    ));
+    let ((mut built_in, a), (mut replaced, b)) = pours_with_each_broad_phase();
     let mut most = 0;
     for step in 0..120 {
-        built_in.update();
-        replaced.update();
-        let pairs = |app: &App| app.world().resource::<CandidatePairs>().pairs().to_vec();
-        let (p, q) = (pairs(&built_in), pairs(&replaced));
-        assert_eq!(p, q, "step {step}: the candidate pairs differ");
-        most = most.max(p.len());
+        most = most.max(step_both(&mut built_in, &mut replaced, step));
     }
     // The pour must have made pairs for the comparison to mean something: 300 bodies in a
     // pile are each near several others.
@@ -94,14 +107,7 @@ fn all_pairs_broad_phase_replaces_the_built_in_one() {
 /// all-pairs ones every step, so poses and velocities stay bit-identical.
 #[test]
 fn all_pairs_broad_phase_matches_as_bodies_leave_and_arrive() {
-    let (mut built_in, a) = mixed_pour((MinimalPlugins, PhysicsPlugins::default()));
-    let (mut replaced, b) = mixed_pour((
-        MinimalPlugins,
-        PhysicsPlugins::default()
-            .build()
-            .disable::<BroadPhasePlugin>()
-            .add(AllPairsBroadPhase),
-    ));
+    let ((mut built_in, a), (mut replaced, b)) = pours_with_each_broad_phase();
     let shape = |k: usize| match k % 3 {
         0 => Collider::sphere(0.5),
         1 => Collider::cuboid(0.5, 0.5, 0.5),
@@ -136,12 +142,7 @@ fn all_pairs_broad_phase_matches_as_bodies_leave_and_arrive() {
                 _ => {}
             }
         }
-        built_in.update();
-        replaced.update();
-        let pairs = |app: &App| app.world().resource::<CandidatePairs>().pairs().to_vec();
-        let (p, q) = (pairs(&built_in), pairs(&replaced));
-        assert_eq!(p, q, "step {step}: the candidate pairs differ");
-        most = most.max(p.len());
+        most = most.max(step_both(&mut built_in, &mut replaced, step));
     }
     assert!(most > 300, "only {most} candidate pairs");
     let bodies = |app: &mut App| {
