@@ -17,6 +17,7 @@
 //! assert!(y < 1.5, "the ball fell");
 //! ```
 
+use bevy::app::Plugins;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 
@@ -26,8 +27,27 @@ use crate::prelude::*;
 /// exactly one fixed step of `1/hz` s. The first update, which Bevy spends recording the start
 /// instant, has already run.
 pub fn headless_app(hz: f64) -> App {
+    headless_app_with(hz, (MinimalPlugins, PhysicsPlugins::default()))
+}
+
+/// [`headless_app`] with other `plugins` in place of `MinimalPlugins` + [`PhysicsPlugins`]:
+/// `MinimalPlugins` set up otherwise (e.g. its task pools' threads), a physics plugin group
+/// with a stage replaced. They must bring the time plugins and a fixed-step schedule, as
+/// `MinimalPlugins` does.
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+/// use impact3d::scenes;
+///
+/// let app = scenes::headless_app_with(60.0, (MinimalPlugins, PhysicsPlugins::default()));
+/// assert!(app.world().contains_resource::<Gravity>());
+/// ```
+pub fn headless_app_with<M>(hz: f64, plugins: impl Plugins<M>) -> App {
     let mut app = App::new();
-    app.add_plugins((MinimalPlugins, PhysicsPlugins::default()))
+    app.add_plugins(plugins)
         .insert_resource(Time::<Fixed>::from_hz(hz))
         .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
     app.update();

@@ -87,16 +87,11 @@ fn bad_constructor_input_carries_an_error() {
 #[test]
 fn bad_collider_quarantines_its_body_with_the_message() {
     capture_logs();
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let body = app
-        .world_mut()
-        .spawn((
-            RigidBody::Static,
-            Collider::trimesh(vec![Vec3::ZERO, Vec3::X, Vec3::Z], vec![[0, 1, 7]]),
-            Name::new("mesh"),
-        ))
-        .id();
+    let (mut app, body) = on_ground((
+        RigidBody::Static,
+        Collider::trimesh(vec![Vec3::ZERO, Vec3::X, Vec3::Z], vec![[0, 1, 7]]),
+        Name::new("mesh"),
+    ));
     run_steps(&mut app, 5);
     let reason = &app.world().get::<Quarantined>(body).unwrap().reason;
     assert!(reason.contains("[0, 1, 7]"), "{reason}");
@@ -129,13 +124,11 @@ fn tiled_floor(world: &mut World, cells: i32) -> Entity {
             }
         }
     }
-    world
-        .spawn((
-            RigidBody::Static,
-            Collider::trimesh(vertices, indices),
-            Transform::IDENTITY,
-        ))
-        .id()
+    spawn_static(
+        world,
+        Collider::trimesh(vertices, indices),
+        Transform::IDENTITY,
+    )
 }
 
 /// A frictionless box (0.2 m cube) sliding at 2 m/s across the seams of a flat trimesh floor

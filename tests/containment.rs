@@ -492,15 +492,10 @@ fn written_computed_mass_is_recomputed() {
 #[test]
 fn log_lines_name_bodies_by_name() {
     capture_logs();
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let named = app
-        .world_mut()
-        .spawn((
-            scenes::ball(0.5, 1.0, Vec3::new(0.0, 0.5, 0.0), Vec3::NAN),
-            Name::new("crate 3"),
-        ))
-        .id();
+    let (mut app, named) = on_ground((
+        scenes::ball(0.5, 1.0, Vec3::new(0.0, 0.5, 0.0), Vec3::NAN),
+        Name::new("crate 3"),
+    ));
     let anonymous = app
         .world_mut()
         .spawn((

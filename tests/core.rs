@@ -352,17 +352,12 @@ fn kinematic_wall_moves_at_its_velocity_and_pushes() {
     );
 
     // A slow kinematic pusher (below the restitution threshold) carries a box along.
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let pusher = app
-        .world_mut()
-        .spawn((
-            RigidBody::Kinematic,
-            Collider::cuboid(0.1, 0.5, 0.5),
-            Transform::from_xyz(-0.7, 0.5, 0.0),
-            LinearVelocity(Vec3::new(0.3, 0.0, 0.0)),
-        ))
-        .id();
+    let (mut app, pusher) = on_ground((
+        RigidBody::Kinematic,
+        Collider::cuboid(0.1, 0.5, 0.5),
+        Transform::from_xyz(-0.7, 0.5, 0.0),
+        LinearVelocity(Vec3::new(0.3, 0.0, 0.0)),
+    ));
     let cube = app
         .world_mut()
         .spawn(scenes::cuboid(

@@ -663,15 +663,10 @@ fn rigid_body_disabled() {
 /// (1e-4 relative), while a box without it lands.
 #[test]
 fn collider_disabled_falls_through() {
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let ghost = app
-        .world_mut()
-        .spawn((
-            scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 2.0, 0.0)),
-            ColliderDisabled,
-        ))
-        .id();
+    let (mut app, ghost) = on_ground((
+        scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 2.0, 0.0)),
+        ColliderDisabled,
+    ));
     let solid = app
         .world_mut()
         .spawn(scenes::cuboid(

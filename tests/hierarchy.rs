@@ -273,18 +273,13 @@ fn dumbbell_of_child_spheres_rolls_as_the_compound_does() {
 /// its centre at 1 m, and has mass `rho x 2 m^3` and the inertia of a 2 x 1 x 1 m box.
 #[test]
 fn scaled_cuboid_rests_at_its_scaled_height_with_its_scaled_mass() {
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let body = app
-        .world_mut()
-        .spawn((
-            RigidBody::Dynamic,
-            Collider::cuboid(0.5, 0.5, 0.5),
-            Transform::from_xyz(0.0, 1.1, 0.0)
-                .with_rotation(Quat::from_rotation_z(PI / 2.0))
-                .with_scale(Vec3::new(2.0, 1.0, 1.0)),
-        ))
-        .id();
+    let (mut app, body) = on_ground((
+        RigidBody::Dynamic,
+        Collider::cuboid(0.5, 0.5, 0.5),
+        Transform::from_xyz(0.0, 1.1, 0.0)
+            .with_rotation(Quat::from_rotation_z(PI / 2.0))
+            .with_scale(Vec3::new(2.0, 1.0, 1.0)),
+    ));
     run_steps(&mut app, 120);
     let y = position(&app, body).y;
     // 1 mm: the soft contact's sink, as above.
@@ -355,17 +350,12 @@ fn uniformly_scaled_sphere_rests_and_weighs_as_the_bigger_sphere() {
 #[test]
 fn non_uniformly_scaled_sphere_warns_once_and_takes_the_nearest_scale() {
     capture_logs();
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let body = app
-        .world_mut()
-        .spawn((
-            Name::new("Egg"),
-            RigidBody::Dynamic,
-            Collider::sphere(0.5),
-            Transform::from_xyz(0.0, 0.8, 0.0).with_scale(Vec3::new(2.0, 1.0, 1.0)),
-        ))
-        .id();
+    let (mut app, body) = on_ground((
+        Name::new("Egg"),
+        RigidBody::Dynamic,
+        Collider::sphere(0.5),
+        Transform::from_xyz(0.0, 0.8, 0.0).with_scale(Vec3::new(2.0, 1.0, 1.0)),
+    ));
     run_steps(&mut app, 120);
     let warnings: Vec<_> = take_logs()
         .into_iter()

@@ -19,16 +19,11 @@ fn box_mesh() -> Mesh {
 /// Drops `collider` (density 1000) from 5 cm above its resting height on the ground, runs 2 s
 /// and returns its height and tilt.
 fn rest_height(collider: Collider) -> (f32, f32) {
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let body = app
-        .world_mut()
-        .spawn((
-            RigidBody::Dynamic,
-            collider,
-            Transform::from_xyz(0.0, HALF.y + 0.05, 0.0),
-        ))
-        .id();
+    let (mut app, body) = on_ground((
+        RigidBody::Dynamic,
+        collider,
+        Transform::from_xyz(0.0, HALF.y + 0.05, 0.0),
+    ));
     run_steps(&mut app, 120);
     assert!(app.world().get::<Quarantined>(body).is_none());
     (

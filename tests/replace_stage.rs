@@ -4,12 +4,14 @@
 //! broad phase's tree as bodies leave (despawned, collider removed) and arrive, awake and
 //! asleep.
 
+mod common;
+
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
+use common::mixed_pour;
 use impact3d::collision::BroadPhaseTree;
 use impact3d::pipeline::{BroadPhasePlugin, CandidatePairs, PhysicsState, update_broad_phase};
 use impact3d::prelude::*;
-use impact3d::scenes::{self, Pour, PourBodies};
+use impact3d::scenes;
 use parry3d::bounding_volume::BoundingVolume;
 
 /// Every pair of bodies, at least one of them active, whose boxes overlap: the answer a broad
@@ -45,23 +47,29 @@ impl Plugin for AllPairsBroadPhase {
     }
 }
 
-/// A headless app at 60 Hz, sleeping off, with `plugins`, and 300 mixed bodies (spheres,
-/// boxes, capsules, hulls) poured into a walled box with friction 0.5.
-fn pour(plugins: impl PluginGroup) -> (App, Vec<Entity>) {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, plugins))
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-        .insert_resource(SleepConfig {
-            enabled: false,
-            ..default()
-        });
-    app.update();
-    let spawned = scenes::pour_into(
-        app.world_mut(),
-        &Pour::walled_box(300, PourBodies::Mixed, 1.0, 0.5),
-    );
-    (app, spawned.bodies)
+/// The mixed pour twice: with the built-in broad phase, and with the all-pairs one in its
+/// place. Each app with its bodies.
+fn pours_with_each_broad_phase() -> ((App, Vec<Entity>), (App, Vec<Entity>)) {
+    let built_in = mixed_pour((MinimalPlugins, PhysicsPlugins::default()));
+    let replaced = mixed_pour((
+        MinimalPlugins,
+        PhysicsPlugins::default()
+            .build()
+            .disable::<BroadPhasePlugin>()
+            .add(AllPairsBroadPhase),
+    ));
+    (built_in, replaced)
+}
+
+/// Steps both apps once and asserts that their broad phases found the same candidate pairs;
+/// returns how many.
+fn step_both(built_in: &mut App, replaced: &mut App, step: u32) -> usize {
+    built_in.update();
+    replaced.update();
+    let pairs = |app: &App| app.world().resource::<CandidatePairs>().pairs().to_vec();
+    let (p, q) = (pairs(built_in), pairs(replaced));
+    assert_eq!(p, q, "step {step}: the candidate pairs differ");
+    p.len()
 }
 
 /// The same pour with the built-in broad phase and with the all-pairs one: the same candidate
@@ -71,21 +79,10 @@ fn pour(plugins: impl PluginGroup) -> (App, Vec<Entity>) {
 /// replacement leaves out.
 #[test]
 fn all_pairs_broad_phase_replaces_the_built_in_one() {
-    let (mut built_in, a) = pour(PhysicsPlugins::default());
-    let (mut replaced, b) = pour(
-        PhysicsPlugins::default()
-            .build()
-            .disable::<BroadPhasePlugin>()
-            .add(AllPairsBroadPhase),
-    );
+    let ((mut built_in, a), (mut replaced, b)) = pours_with_each_broad_phase();
     let mut most = 0;
     for step in 0..120 {
-        built_in.update();
-        replaced.update();
-        let pairs = |app: &App| app.world().resource::<CandidatePairs>().pairs().to_vec();
-        let (p, q) = (pairs(&built_in), pairs(&replaced));
-        assert_eq!(p, q, "step {step}: the candidate pairs differ");
-        most = most.max(p.len());
+        most = most.max(step_both(&mut built_in, &mut replaced, step));
     }
     // The pour must have made pairs for the comparison to mean something: 300 bodies in a
     // pile are each near several others.
@@ -110,13 +107,7 @@ fn all_pairs_broad_phase_replaces_the_built_in_one() {
 /// all-pairs ones every step, so poses and velocities stay bit-identical.
 #[test]
 fn all_pairs_broad_phase_matches_as_bodies_leave_and_arrive() {
-    let (mut built_in, a) = pour(PhysicsPlugins::default());
-    let (mut replaced, b) = pour(
-        PhysicsPlugins::default()
-            .build()
-            .disable::<BroadPhasePlugin>()
-            .add(AllPairsBroadPhase),
-    );
+    let ((mut built_in, a), (mut replaced, b)) = pours_with_each_broad_phase();
     let shape = |k: usize| match k % 3 {
         0 => Collider::sphere(0.5),
         1 => Collider::cuboid(0.5, 0.5, 0.5),
@@ -151,12 +142,7 @@ fn all_pairs_broad_phase_matches_as_bodies_leave_and_arrive() {
                 _ => {}
             }
         }
-        built_in.update();
-        replaced.update();
-        let pairs = |app: &App| app.world().resource::<CandidatePairs>().pairs().to_vec();
-        let (p, q) = (pairs(&built_in), pairs(&replaced));
-        assert_eq!(p, q, "step {step}: the candidate pairs differ");
-        most = most.max(p.len());
+        most = most.max(step_both(&mut built_in, &mut replaced, step));
     }
     assert!(most > 300, "only {most} candidate pairs");
     let bodies = |app: &mut App| {

@@ -14,16 +14,11 @@ use std::f32::consts::PI;
 /// Drops `collider` (density 1000) with its origin `rest + 0.05` m above the ground, upright,
 /// runs 2 s at 60 Hz and returns the app and the body.
 fn settle(collider: Collider, rest: f32) -> (App, Entity) {
-    let mut app = headless_app(60.0);
-    scenes::ground(app.world_mut());
-    let body = app
-        .world_mut()
-        .spawn((
-            RigidBody::Dynamic,
-            collider,
-            Transform::from_xyz(0.0, rest + 0.05, 0.0),
-        ))
-        .id();
+    let (mut app, body) = on_ground((
+        RigidBody::Dynamic,
+        collider,
+        Transform::from_xyz(0.0, rest + 0.05, 0.0),
+    ));
     run_steps(&mut app, 120);
     (app, body)
 }
@@ -96,11 +91,11 @@ fn spheres_rest_on_a_heightfield_at_the_sampled_height() {
     let heights: Vec<Vec<f32>> = (0..6)
         .map(|i| vec![if i < 3 { 0.2 } else { 0.6 }; 4])
         .collect();
-    app.world_mut().spawn((
-        RigidBody::Static,
+    spawn_static(
+        app.world_mut(),
         Collider::heightfield(heights, Vec3::new(10.0, 1.5, 6.0)),
         Transform::IDENTITY,
-    ));
+    );
     let balls: Vec<(Entity, f32)> = [(-3.0, 0.3 + 0.3), (3.0, 0.9 + 0.3)]
         .into_iter()
         .map(|(x, rest)| {

@@ -7,6 +7,7 @@ mod common;
 
 use bevy::ecs::system::RunSystemOnce;
 use bevy::prelude::*;
+use common::{quad, spawn_static};
 use impact3d::collision::BroadPhaseTree;
 use impact3d::prelude::*;
 use impact3d::scenes::{headless_app, run_steps};
@@ -33,10 +34,6 @@ fn world_of(spawn: impl FnOnce(&mut World)) -> App {
     spawn(app.world_mut());
     run_steps(&mut app, 1);
     app
-}
-
-fn spawn_static(world: &mut World, collider: Collider, transform: Transform) -> Entity {
-    world.spawn((RigidBody::Static, collider, transform)).id()
 }
 
 fn all() -> SpatialQueryFilter {
@@ -262,15 +259,12 @@ fn rays_hit_compounds_trimeshes_and_heightfields() {
         // A square of two triangles at y = 0.2, 4 m a side, about (20, 0, 0).
         e[1] = spawn_static(
             w,
-            Collider::trimesh(
-                vec![
-                    Vec3::new(-2.0, 0.2, -2.0),
-                    Vec3::new(2.0, 0.2, -2.0),
-                    Vec3::new(2.0, 0.2, 2.0),
-                    Vec3::new(-2.0, 0.2, 2.0),
-                ],
-                vec![[0, 2, 1], [0, 3, 2]],
-            ),
+            quad([
+                Vec3::new(-2.0, 0.2, -2.0),
+                Vec3::new(2.0, 0.2, -2.0),
+                Vec3::new(2.0, 0.2, 2.0),
+                Vec3::new(-2.0, 0.2, 2.0),
+            ]),
             Transform::from_xyz(20.0, 0.0, 0.0),
         );
         // A flat heightfield at 0.5 x 2 = 1 m, 8 m a side, about (30, 0, 0).
@@ -1405,15 +1399,12 @@ fn random_world(world: &mut World, rng: &mut Lcg, n: usize) {
     spawn_static(world, Collider::half_space(Vec3::Y), Transform::IDENTITY);
     spawn_static(
         world,
-        Collider::trimesh(
-            vec![
-                Vec3::new(-3.0, 0.0, -3.0),
-                Vec3::new(3.0, 2.0, -3.0),
-                Vec3::new(3.0, 2.0, 3.0),
-                Vec3::new(-3.0, 0.0, 3.0),
-            ],
-            vec![[0, 2, 1], [0, 3, 2]],
-        ),
+        quad([
+            Vec3::new(-3.0, 0.0, -3.0),
+            Vec3::new(3.0, 2.0, -3.0),
+            Vec3::new(3.0, 2.0, 3.0),
+            Vec3::new(-3.0, 0.0, 3.0),
+        ]),
         Transform::from_xyz(-12.0, 0.0, -12.0),
     );
     let heights: Vec<Vec<f32>> = (0..9)

@@ -6,40 +6,30 @@
 //! process: this test binary again, running the ignored `threaded_pour` with
 //! `IMPACT3D_THREADS` set, which prints a hash of every body's pose.
 
+mod common;
+
 use std::hash::{Hash, Hasher};
 use std::process::Command;
 
 use bevy::app::{TaskPoolOptions, TaskPoolPlugin};
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
+use common::mixed_pour;
 use impact3d::prelude::*;
-use impact3d::scenes::{self, Pour, PourBodies};
+use impact3d::scenes;
 
 /// Runs a 300-body mixed pour with friction (spheres, boxes, capsules, hulls; many contact
 /// pairs a step) for 120 steps at 60 Hz, sleeping off, on a task pool of `threads` threads,
 /// and hashes every body's position and rotation bits.
 fn pour_hash(threads: usize) -> u64 {
-    let mut app = App::new();
-    app.add_plugins((
+    let (mut app, bodies) = mixed_pour((
         MinimalPlugins.set(TaskPoolPlugin {
             task_pool_options: TaskPoolOptions::with_num_threads(threads),
         }),
         PhysicsPlugins::default(),
-    ))
-    .insert_resource(Time::<Fixed>::from_hz(60.0))
-    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-    .insert_resource(SleepConfig {
-        enabled: false,
-        ..default()
-    });
-    app.update();
-    let spawned = scenes::pour_into(
-        app.world_mut(),
-        &Pour::walled_box(300, PourBodies::Mixed, 1.0, 0.5),
-    );
+    ));
     scenes::run_steps(&mut app, 120);
     let mut hasher = std::collections::hash_map::DefaultHasher::new();
-    for &e in &spawned.bodies {
+    for &e in &bodies {
         let t = app.world().get::<Transform>(e).unwrap();
         for x in t
             .translation

@@ -1,10 +1,50 @@
-//! Shared helpers for the whole-app tests: component getters and a per-thread log capture.
+//! Shared helpers for the whole-app tests: app builders and fixtures, component getters and a
+//! per-thread log capture.
 #![allow(dead_code)]
 
 use std::cell::RefCell;
 
+use bevy::app::Plugins;
 use bevy::prelude::*;
 use impact3d::prelude::*;
+use impact3d::scenes::{self, Pour, PourBodies};
+
+/// A headless app at 60 Hz (see [`scenes::headless_app`]) with the ground ([`scenes::ground`])
+/// and then `bundle` spawned: the app and the entity of `bundle`.
+pub fn on_ground(bundle: impl Bundle) -> (App, Entity) {
+    let mut app = scenes::headless_app(60.0);
+    scenes::ground(app.world_mut());
+    let entity = app.world_mut().spawn(bundle).id();
+    (app, entity)
+}
+
+/// Spawns a static body with `collider` at `transform`.
+pub fn spawn_static(world: &mut World, collider: Collider, transform: Transform) -> Entity {
+    world.spawn((RigidBody::Static, collider, transform)).id()
+}
+
+/// A triangle mesh of one quadrilateral: the triangles `[0, 2, 1]` and `[0, 3, 2]` of `corners`
+/// (with corners at (-x, -z), (+x, -z), (+x, +z), (-x, +z), it faces up).
+pub fn quad(corners: [Vec3; 4]) -> Collider {
+    Collider::trimesh(corners.to_vec(), vec![[0, 2, 1], [0, 3, 2]])
+}
+
+/// A headless app at 60 Hz built from `plugins` (see [`scenes::headless_app_with`]), sleeping
+/// off, with 300 mixed bodies (spheres, boxes, capsules, hulls) poured into a walled box with
+/// friction 0.5 (`Pour::walled_box`): many contact pairs a step. The app and the bodies, in
+/// spawn order.
+pub fn mixed_pour<M>(plugins: impl Plugins<M>) -> (App, Vec<Entity>) {
+    let mut app = scenes::headless_app_with(60.0, plugins);
+    app.insert_resource(SleepConfig {
+        enabled: false,
+        ..default()
+    });
+    let spawned = scenes::pour_into(
+        app.world_mut(),
+        &Pour::walled_box(300, PourBodies::Mixed, 1.0, 0.5),
+    );
+    (app, spawned.bodies)
+}
 
 /// Translation of `entity`.
 pub fn position(app: &App, entity: Entity) -> Vec3 {
