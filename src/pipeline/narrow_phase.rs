@@ -98,29 +98,27 @@ pub fn update_narrow_phase(
     let state_ref: &PhysicsState = state;
     let candidates_ref: &CandidatePairs = &candidates;
     let scaled_ref = &scaled;
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    let per_task = pairs_per_task(pairs.pairs_mut().len(), pool.thread_num());
     let geometry: Vec<Geometry> = pairs
         .pairs_mut()
-        .par_chunk_map_mut(
-            ComputeTaskPool::get_or_init(TaskPool::default),
-            PAIRS_PER_TASK,
-            |chunk, pairs| {
-                pairs
-                    .iter_mut()
-                    .enumerate()
-                    .map(|(k, pair)| {
-                        let pair_index = chunk * PAIRS_PER_TASK + k;
-                        pair_geometry(
-                            state_ref,
-                            candidates_ref,
-                            scaled_ref.get(pair_index).and_then(Option::as_ref),
-                            unit,
-                            pair_index,
-                            pair,
-                        )
-                    })
-                    .collect::<Vec<_>>()
-            },
-        )
+        .par_chunk_map_mut(pool, per_task, |chunk, pairs| {
+            pairs
+                .iter_mut()
+                .enumerate()
+                .map(|(k, pair)| {
+                    let pair_index = chunk * per_task + k;
+                    pair_geometry(
+                        state_ref,
+                        candidates_ref,
+                        scaled_ref.get(pair_index).and_then(Option::as_ref),
+                        unit,
+                        pair_index,
+                        pair,
+                    )
+                })
+                .collect::<Vec<_>>()
+        })
         .into_iter()
         .flatten()
         .collect();
@@ -238,8 +236,27 @@ pub fn update_narrow_phase(
     state.unit_shapes = unit_shapes;
 }
 
-/// Candidate pairs per task of the narrow phase's parallel manifold pass.
-const PAIRS_PER_TASK: usize = 64;
+/// Fewest candidate pairs per task of the narrow phase's parallel manifold pass.
+const MIN_PAIRS_PER_TASK: usize = 64;
+
+/// Tasks per thread of the compute pool the manifold pass is split into (a few, so that a
+/// thread that finishes early takes another).
+const TASKS_PER_THREAD: usize = 4;
+
+/// Candidate pairs per task for `pairs` pairs on a pool of `threads` threads: the pairs split
+/// into `TASKS_PER_THREAD` tasks per thread, but none smaller than [`MIN_PAIRS_PER_TASK`].
+/// Each pair's result depends on that pair alone and comes back in pair order, so the split
+/// changes nothing but the time.
+///
+/// Why bounded by the threads: Bevy's task pool without `multi_threaded` (this crate without
+/// feature `parallel`) queues a scope's tasks in a fixed-capacity executor; with a task per 64
+/// pairs, a 1,000-sphere pile's 4,000 pairs made 63 tasks and 10,000 spheres overflowed it,
+/// panicking inside the narrow phase.
+fn pairs_per_task(pairs: usize, threads: usize) -> usize {
+    pairs
+        .div_ceil(threads.max(1) * TASKS_PER_THREAD)
+        .max(MIN_PAIRS_PER_TASK)
+}
 
 /// What the manifold pass found for one candidate pair (see [`pair_geometry`]).
 enum Geometry {
