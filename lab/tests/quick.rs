@@ -108,8 +108,9 @@ fn smoke_sleeping_pair_writes_its_table() {
 
 /// impact3d without its `parallel` feature (as the lab builds it) steps a world of many pairs:
 /// 2,028 touching spheres on a 13 x 13 x 12 grid (spacing 1 m, radius 0.5 m, gravity 0) make
-/// 5,772 neighbour pairs, and the narrow phase once split them into a task per 64, which
-/// overflowed the fixed-capacity executor of Bevy's one-thread task pool (a panic inside the
+/// 22,259 candidate pairs (the margin-widened boxes of all 26 grid neighbours overlap; 5,603
+/// of them touch), and the narrow phase once split them into a task per 64, which overflowed
+/// the fixed-capacity executor of Bevy's one-thread task pool (a panic inside the
 /// schedule). After one step every sphere is still at its grid point to within 1e-3 m (touching
 /// spheres at rest with gravity 0 exchange no impulse: checked by position, since the step
 /// itself is what panicked) and no body is quarantined.

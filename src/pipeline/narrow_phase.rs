@@ -250,8 +250,8 @@ const TASKS_PER_THREAD: usize = 4;
 ///
 /// Why bounded by the threads: Bevy's task pool without `multi_threaded` (this crate without
 /// feature `parallel`) queues a scope's tasks in a fixed-capacity executor; with a task per 64
-/// pairs, a 1,000-sphere pile's 4,000 pairs made 63 tasks and 10,000 spheres overflowed it,
-/// panicking inside the narrow phase.
+/// pairs, the pairs of a 1,000-sphere pour overflowed it, panicking inside the narrow phase
+/// (the lab's test `one_thread_build_steps_thousands_of_pairs`).
 fn pairs_per_task(pairs: usize, threads: usize) -> usize {
     pairs
         .div_ceil(threads.max(1) * TASKS_PER_THREAD)
