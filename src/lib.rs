@@ -25,6 +25,7 @@ pub use messages::{CollisionEnd, CollisionEnded, CollisionStart, CollisionStarte
 pub mod prelude {
     pub use crate::PhysicsPlugins;
     pub use crate::character::{
+        CharacterConfig, CharacterOutput, CharacterPlugin, CharacterSystems, KinematicCharacter,
         MoveAndSlide, MoveAndSlideConfig, MoveAndSlideHitData, MoveAndSlideHitResponse,
         MoveAndSlideOutput,
     };

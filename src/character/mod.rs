@@ -18,16 +18,22 @@
 //!   function.
 
 mod config;
+mod controller;
 mod depenetration;
 mod hits;
 mod move_and_slide;
 mod project;
+mod walk;
 
 pub use config::{
     COS_5_DEGREES, CharacterConfig, DepenetrationConfig, MAX_ITERATIONS, MoveAndSlideConfig,
+};
+pub use controller::{
+    CharacterPlugin, CharacterSystems, KinematicCharacter, move_kinematic_characters,
 };
 pub use hits::{
     ContactPoint, MoveAndSlideHitData, MoveAndSlideHitResponse, MoveAndSlideOutput, MoveHitData,
 };
 pub use move_and_slide::MoveAndSlide;
 pub use project::project_velocity;
+pub use walk::{CharacterHit, CharacterOutput};
