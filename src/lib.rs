@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+pub mod character;
 pub mod collision;
 #[cfg(feature = "debug")]
 pub mod debug;
@@ -23,6 +24,11 @@ pub use messages::{CollisionEnd, CollisionEnded, CollisionStart, CollisionStarte
 /// Everything a user of the plugin writes.
 pub mod prelude {
     pub use crate::PhysicsPlugins;
+    pub use crate::character::{
+        CharacterConfig, CharacterOutput, CharacterPlugin, CharacterSystems, KinematicCharacter,
+        MoveAndSlide, MoveAndSlideConfig, MoveAndSlideHitData, MoveAndSlideHitResponse,
+        MoveAndSlideOutput,
+    };
     pub use crate::collision::{
         Collider, ColliderConstructor, ColliderConstructorHierarchy,
         ColliderConstructorHierarchyConfig, ColliderConstructorHierarchyReady,
