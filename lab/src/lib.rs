@@ -13,6 +13,7 @@
 
 pub mod engines;
 pub mod measure;
+pub mod queries;
 pub mod report;
 pub mod scenes;
 pub mod sleeping;

@@ -146,3 +146,20 @@ fn one_thread_build_steps_thousands_of_pairs() {
         assert!((now - at).length() <= 1e-3, "{at} -> {now}");
     }
 }
+
+/// The ray-cast timing runs on impact3d alone: of 300 seeded rays into the 10,000-body grid, some
+/// hit (the grid fills its box: a 20 m ray from inside it meets a body) and each hit is within
+/// the 20 m reach; the table names the engine.
+#[test]
+fn smoke_ray_casts() {
+    let rows = impact3d_lab::queries::run(300, 1, false);
+    assert_eq!(rows.len(), 1);
+    let row = &rows[0];
+    assert!(row.hits > 150 && row.us_per_ray > 0.0, "{row:?}");
+    assert!(
+        row.distances
+            .iter()
+            .all(|d| d.is_nan() || (0.0..=20.0).contains(d))
+    );
+    assert!(impact3d_lab::queries::table(&rows, 300).contains("| impact3d |"));
+}
