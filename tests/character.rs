@@ -12,13 +12,13 @@
 //! depenetration stops once what is left is below 1e-4 m: so positions are checked to 1e-3 m
 //! (a tenth of the skin) over a whole walk, and heights that must not change to 1e-4 m.
 
-use std::cell::RefCell;
-
 use bevy::ecs::schedule::SingleThreadedExecutor;
 use bevy::ecs::system::RunSystemOnce;
 use bevy::prelude::*;
 use impact3d::prelude::*;
 use impact3d::scenes::{headless_app, run_steps};
+
+mod common;
 
 const R: f32 = 0.3;
 const HALF: f32 = 0.5;
@@ -477,30 +477,9 @@ fn depenetration_pushes_out_of_the_ground_and_a_wall_to_the_skin() {
     assert!(out.grounded && (out.ground_normal - Vec3::Y).length() < 1e-4);
 }
 
-thread_local! {
-    static LOGS: RefCell<Vec<(log::Level, String)>> = const { RefCell::new(Vec::new()) };
-}
-
-struct Capture;
-
-impl log::Log for Capture {
-    fn enabled(&self, _: &log::Metadata) -> bool {
-        true
-    }
-    fn log(&self, record: &log::Record) {
-        LOGS.with(|l| {
-            l.borrow_mut()
-                .push((record.level(), record.args().to_string()))
-        });
-    }
-    fn flush(&self) {}
-}
-
-static CAPTURE: Capture = Capture;
-
 /// The errors logged on this thread since the last call.
 fn take_errors() -> Vec<String> {
-    LOGS.with(|l| std::mem::take(&mut *l.borrow_mut()))
+    common::take_logs()
         .into_iter()
         .filter(|(level, _)| *level == log::Level::Error)
         .map(|(_, message)| message)
@@ -513,8 +492,7 @@ fn take_errors() -> Vec<String> {
 /// logged again.
 #[test]
 fn bad_input_is_logged_once_per_character_and_moves_nothing() {
-    let _ = log::set_logger(&CAPTURE);
-    log::set_max_level(log::LevelFilter::Info);
+    common::capture_logs();
     let mut app = new_app();
     run_steps(&mut app, 1);
     let at = |z: f32| Vec3::new(0.0, STAND, z);

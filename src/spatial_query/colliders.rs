@@ -1,6 +1,8 @@
 //! The world spatial queries see: every body's collider at its pose at the end of the last
 //! physics step, found through the broad phase's tree.
 
+use std::cell::Cell;
+
 use bevy::prelude::*;
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
 use parry3d::math::Pose;
@@ -121,6 +123,62 @@ impl SpatialQueryColliders {
         }
         for c in &self.loose {
             if c.hittable && enter(&widened(&c.aabb)) {
+                visit(c);
+            }
+        }
+    }
+
+    /// Calls `visit` with every hittable collider whose [`widened`] box the cast enters no
+    /// later than `bound` (read afresh for each box), nearer boxes first: a best-first walk of
+    /// the tree (parry's `find_best`: of a node's two children, the one the cast enters first
+    /// is walked first), then the stragglers and the colliders outside the tree. `entry(aabb,
+    /// bound)` is the distance at which the cast enters `aabb`, if it does within `bound`: a
+    /// lower bound on its distance to anything inside (a node's box holds its leaves' boxes, a
+    /// leaf's box its collider's box, except for the stragglers; widening keeps that). `visit`
+    /// lowers `bound` to the nearest hit it has found, which prunes every box entered beyond
+    /// it; a box entered exactly at `bound` is still visited, so that hits at the same
+    /// distance are all seen (the caller decides ties by entity). Against [`candidates`]
+    /// (the tree in its stored order), the nearest hit is found as exactly, and sooner.
+    ///
+    /// [`candidates`]: Self::candidates
+    pub(crate) fn nearest_candidates(
+        &self,
+        tree: &BroadPhaseTree,
+        bound: &Cell<f32>,
+        entry: impl Fn(&Aabb, f32) -> Option<f32>,
+        visit: impl Fn(&QueryCollider),
+    ) {
+        let reach = |aabb: &Aabb| {
+            let limit = bound.get();
+            entry(&widened(aabb), limit).filter(|&d| d <= limit)
+        };
+        // parry's search keeps a leaf only below its best cost, and `visit` keeps the best
+        // itself: every leaf reports no cost, every box its entry a hair early (so that a box
+        // entered exactly at the bound is not pruned), `f32::MAX` when it is not entered.
+        tree.bvh().find_best(
+            bound.get(),
+            |node, _| reach(&node.aabb()).map_or(f32::MAX, f32::next_down),
+            |leaf, _| {
+                if let Some(c) = self.at_leaf(tree, leaf)
+                    && c.hittable
+                    && !c.straggler
+                    && reach(&c.aabb).is_some()
+                {
+                    visit(c);
+                }
+                None::<f32>
+            },
+        );
+        for &leaf in &self.stragglers {
+            if let Some(c) = self.at_leaf(tree, leaf)
+                && c.hittable
+                && reach(&c.aabb).is_some()
+            {
+                visit(c);
+            }
+        }
+        for c in &self.loose {
+            if c.hittable && reach(&c.aabb).is_some() {
                 visit(c);
             }
         }

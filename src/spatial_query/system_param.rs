@@ -1,7 +1,7 @@
 //! The [`SpatialQuery`] system parameter: rays, shape casts, point projection and intersection
 //! tests against the colliders of the last physics step.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
@@ -109,37 +109,36 @@ impl SpatialQuery<'_, '_> {
     }
 
     /// The nearest hit (of least entity among equally near ones) of a cast on the colliders
-    /// `filter` and `predicate` admit: `hit` tests one collider, `reaches(aabb, bound)` whether
-    /// the cast enters a box within `bound` (m), which shrinks to the nearest hit so far.
+    /// `filter` and `predicate` admit: `hit` tests one collider, `entry(aabb, bound)` gives the
+    /// distance (m) at which the cast enters a box, if it does within `bound`, which shrinks
+    /// to the nearest hit so far (see [`SpatialQueryColliders::nearest_candidates`]).
     fn nearest_hit<H: Hit>(
         &self,
         filter: &SpatialQueryFilter,
         predicate: &dyn Fn(Entity) -> bool,
         max: f32,
-        reaches: impl Fn(&Aabb, f32) -> bool,
+        entry: impl Fn(&Aabb, f32) -> Option<f32>,
         hit: impl Fn(&QueryCollider) -> Option<H>,
     ) -> Option<H> {
         let bound = Cell::new(max);
-        let mut best: Option<H> = None;
-        self.colliders.candidates(
-            &self.tree,
-            |aabb| reaches(aabb, bound.get()),
-            |c| {
+        let best: RefCell<Option<H>> = RefCell::new(None);
+        self.colliders
+            .nearest_candidates(&self.tree, &bound, entry, |c| {
                 if !self.accepts(c, filter) || !predicate(c.entity) {
                     return;
                 }
-                if let Some(h) = hit(c)
-                    && best.as_ref().is_none_or(|b| {
+                if let Some(h) = hit(c) {
+                    let mut best = best.borrow_mut();
+                    if best.as_ref().is_none_or(|b| {
                         let ((d, e), (bd, be)) = (h.order(), b.order());
                         closer(d, e, bd, be)
-                    })
-                {
-                    bound.set(h.order().0);
-                    best = Some(h);
+                    }) {
+                        bound.set(h.order().0);
+                        *best = Some(h);
+                    }
                 }
-            },
-        );
-        best
+            });
+        best.into_inner()
     }
 
     /// Every hit of a cast on the colliders `filter` admits, sorted by distance then entity:
@@ -191,11 +190,12 @@ impl SpatialQuery<'_, '_> {
         predicate: &dyn Fn(Entity) -> bool,
     ) -> Option<RayHitData> {
         let (ray, max) = ray_input(origin, direction.as_vec3(), max_distance).ok()?;
+        let slab = Slab::new(&ray);
         self.nearest_hit(
             filter,
             predicate,
             max,
-            |aabb, bound| aabb.cast_local_ray(&ray, bound, true).is_some(),
+            |aabb, bound| slab.entry(aabb, bound),
             |c| ray_hit(c, &ray, max, solid),
         )
     }
@@ -246,9 +246,10 @@ impl SpatialQuery<'_, '_> {
         let Ok((ray, max)) = ray_input(origin, direction.as_vec3(), max_distance) else {
             return Vec::new();
         };
+        let slab = Slab::new(&ray);
         self.sorted_hits(
             filter,
-            |aabb| aabb.cast_local_ray(&ray, max, true).is_some(),
+            |aabb| slab.entry(aabb, max).is_some(),
             |c| ray_hit(c, &ray, max, solid),
         )
     }
@@ -295,7 +296,7 @@ impl SpatialQuery<'_, '_> {
             filter,
             predicate,
             cast.options.max_time_of_impact,
-            |aabb, bound| cast.sweeps(aabb, bound),
+            |aabb, bound| cast.entry(aabb, bound),
             |c| cast.hit(c),
         )
     }
@@ -355,7 +356,11 @@ impl SpatialQuery<'_, '_> {
             return Vec::new();
         };
         let max = cast.options.max_time_of_impact;
-        self.sorted_hits(filter, |aabb| cast.sweeps(aabb, max), |c| cast.hit(c))
+        self.sorted_hits(
+            filter,
+            |aabb| cast.entry(aabb, max).is_some(),
+            |c| cast.hit(c),
+        )
     }
 
     /// The closest point to `point` (m) on the colliders `filter` admits (of least entity among
@@ -622,12 +627,15 @@ impl<'a> ShapeCast<'a> {
         })
     }
 
-    /// Whether the cast shape's box, swept up to `max` (m), meets `aabb` (or comes within the
-    /// target distance of it): the centre's ray enters `aabb` grown by the box's half size.
-    fn sweeps(&self, aabb: &Aabb, max: f32) -> bool {
-        Aabb::new(aabb.mins - self.reach, aabb.maxs + self.reach)
-            .cast_local_ray(&self.center_ray, max, true)
-            .is_some()
+    /// How far the cast shape's box travels before it meets `aabb` (or comes within the
+    /// target distance of it), if it does within `max` (m): where the centre's ray enters
+    /// `aabb` grown by the box's half size. No hit inside `aabb` is nearer.
+    fn entry(&self, aabb: &Aabb, max: f32) -> Option<f32> {
+        Aabb::new(aabb.mins - self.reach, aabb.maxs + self.reach).cast_local_ray(
+            &self.center_ray,
+            max,
+            true,
+        )
     }
 
     /// The cast's hit on `c`, exactly (see [`exact::cast_shape`]).
@@ -657,6 +665,39 @@ pub(crate) fn ray_input(origin: Vec3, direction: Vec3, max: f32) -> Result<(Ray,
     let direction = unit_direction(direction)?;
     let max = check_distance("max distance", max)?;
     Ok((Ray::new(origin, direction), max))
+}
+
+/// A ray prepared for box tests: its origin and the reciprocals of its direction's components.
+struct Slab {
+    origin: Vec3,
+    inverse: Vec3,
+}
+
+impl Slab {
+    fn new(ray: &Ray) -> Self {
+        Slab {
+            origin: ray.origin,
+            inverse: ray.dir.recip(),
+        }
+    }
+
+    /// Where the ray enters `aabb` (0 when it starts inside), if it does within `max` (m): the
+    /// slab test, the latest entry into the three pairs of planes before the earliest exit.
+    /// A component of the direction that is zero gives infinite slab times, or NaN for an
+    /// origin on one of that axis's planes, which `min`/`max` pass over: the box then counts
+    /// as entered along that axis, which can only enter a box early, never late (so the
+    /// nearest-hit search never prunes a box holding a hit). parry's `cast_local_ray` gives the
+    /// same entry with a clipping step per box (it was 35 % of a query's time; parry's own
+    /// tree cast uses this test).
+    #[inline]
+    fn entry(&self, aabb: &Aabb, max: f32) -> Option<f32> {
+        let a = (aabb.mins - self.origin) * self.inverse;
+        let b = (aabb.maxs - self.origin) * self.inverse;
+        let (near, far) = (a.min(b), a.max(b));
+        let enter = near.max_element().max(0.0);
+        let exit = far.min_element().min(max);
+        (enter <= exit).then_some(enter)
+    }
 }
 
 /// `p` if it is finite.
