@@ -8,7 +8,7 @@
 //! (prepare), the overlapping pairs in [`CandidatePairs`] (broad phase), the contact rows in
 //! [`ContactRows`] (narrow phase, impulses from the solve), the step's events in
 //! [`StepEvents`] (narrow phase and solve); the broad phase also keeps the persistent
-//! [`BroadPhaseTree`](crate::collision::BroadPhaseTree) of every body's box for spatial queries. A
+//! [`BroadPhaseTree`] of every body's box for spatial queries. A
 //! replacement broad phase reads the bodies' boxes and ends with [`CandidatePairs::set`]
 //! (`tests/replace_stage.rs` swaps in an all-pairs one and gets bit-identical results); the
 //! tree is then left empty. Nothing in `collision`, `dynamics` or `schedule` imports

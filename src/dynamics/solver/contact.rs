@@ -78,8 +78,8 @@ pub struct ContactConstraint {
     pub total_impulse: f32,
     /// The contact was resolved as an impact (approach above the restitution threshold).
     pub impact: bool,
-    /// The row's account in the step's [`RestitutionLedger`](super::ledger::RestitutionLedger)
-    /// ([`NO_LEDGER`](super::ledger::NO_LEDGER): none).
+    /// The row's account in the step's [`RestitutionLedger`]
+    /// ([`NO_LEDGER`]: none).
     pub ledger: u32,
 }
 

@@ -1,6 +1,6 @@
 //! Sequential impulses ([`SolverMethod::SequentialImpulses`]):
 //! projected Gauss-Seidel with split-impulse position correction
-//! ([`PushOut`](super::push_out::PushOut)) over substeps, a bounce applied in
+//! ([`PushOut`]) over substeps, a bounce applied in
 //! the substep its gap closes; the substep loop is shared with Jacobi.
 
 use bevy::prelude::*;
@@ -188,7 +188,7 @@ impl RigidRows {
     }
 
     /// The smallest pseudo normal velocity the row accepts in the push-out, m/s
-    /// ([`PushOut`](super::push_out::PushOut)): penetration beyond the slop is pushed out at
+    /// ([`PushOut`]): penetration beyond the slop is pushed out at
     /// `baumgarte (-s - slop) / h`, but no faster than `max_push_out` (as the soft step's
     /// push-out: uncapped, `0.2 d / h` pushes a 5 cm overlap out at 2.4 m/s at 240 Hz and a
     /// 0.5 m one at 24 m/s); a row within the slop may not approach (0), a speculative one

@@ -5,13 +5,13 @@
 //! One concern a file, in the order a step meets them:
 //! - this file: the plugin, the system [`prepare_bodies`] that runs the stage, and the start of
 //!   a step's arrays;
-//! - [`query`]: what the stage reads (the body components, the settings, the removals);
-//! - [`hierarchy`]: colliders on child entities, parented bodies and their world poses;
-//! - [`scale`]: the shape built for a body with child colliders or a scale;
-//! - [`bodies`]: gathering one body into the step's arrays, step by step;
-//! - [`validation`]: the checks of a body's input and its mass properties;
-//! - [`motion`]: forces, accelerations, damping and speed caps, and what wakes a sleeper;
-//! - [`sleepers`]: which sleeping bodies are read, what becomes of them, and how a sleeping body
+//! - `query`: what the stage reads (the body components, the settings, the removals);
+//! - `hierarchy`: colliders on child entities, parented bodies and their world poses;
+//! - `scale`: the shape built for a body with child colliders or a scale;
+//! - `bodies`: gathering one body into the step's arrays, step by step;
+//! - `validation`: the checks of a body's input and its mass properties;
+//! - `motion`: forces, accelerations, damping and speed caps, and what wakes a sleeper;
+//! - `sleepers`: which sleeping bodies are read, what becomes of them, and how a sleeping body
 //!   enters the step.
 
 mod bodies;
@@ -53,7 +53,7 @@ impl Plugin for PreparePlugin {
 /// Validates every body, quarantines bad ones (logging an error that names the entity), keeps
 /// mass properties up to date and packs the solver bodies. A collider without a `RigidBody` is
 /// static, unless it is on a descendant of a body: then it is a part of that body (see
-/// [`ColliderOf`](crate::collision::collider::ColliderOf) and [`resolve_hierarchy`]).
+/// [`ColliderOf`](crate::collision::collider::ColliderOf) and `resolve_hierarchy`).
 ///
 /// A sleeping body is read only when something may have touched it (a component it depends
 /// on changed or was removed, or it was just put to sleep); the others keep their record in

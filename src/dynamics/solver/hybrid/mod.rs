@@ -1,0 +1,121 @@
+//! The hybrid method (the default, [`SolverMethod::Hybrid`](super::SolverMethod::Hybrid)): an
+//! impact phase ([`propagate`], impacts in time order, each
+//! manifold a block), then a soft resting phase in which each manifold is solved as a block, in
+//! shock order (supports before what they support), with the supports held only as far as
+//! they really are held and each manifold as stiff as the load it carries.
+
+use std::ops::Range;
+
+use bevy::prelude::*;
+
+use super::body::{Motion, SolverBody};
+use super::contact::{ContactConstraint, solve_friction};
+use super::iterative::{Settling, Sweep};
+use super::propagation::propagate;
+use super::soft_step::{Resting, Softness, soft_substeps};
+use super::{SolverConfig, SolverStats, propagation_params};
+use crate::impulse::{apply_row_impulse, row_inverse_mass};
+
+mod block;
+mod loads;
+mod order;
+mod support;
+mod sweep;
+#[cfg(test)]
+mod tests;
+
+pub use block::*;
+use loads::*;
+use order::*;
+use support::*;
+pub use sweep::*;
+
+/// The hybrid method's solve of one step (see [`super::step`]): the impact phase, then the
+/// resting phase over the manifolds as blocks in shock order (or only gravity and integration
+/// when no contact can take an impulse).
+pub(super) fn solve(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactConstraint],
+    manifolds: &[Range<usize>],
+    config: &SolverConfig,
+    gravity: Vec3,
+    dt: f32,
+    stats: &mut SolverStats,
+) {
+    let report = propagate(
+        bodies,
+        contacts,
+        manifolds,
+        &propagation_params(
+            config,
+            config.restitution_threshold,
+            gravity,
+            false,
+            true,
+            dt,
+        ),
+    );
+    stats.propagation_sweeps = report.sweeps;
+    stats.propagation_bound_hit = report.bound_hit;
+    if resting_phase_idle(bodies, contacts, config, gravity, dt) {
+        soft_substeps(
+            bodies,
+            contacts,
+            Resting::Idle,
+            &mut Settling::default(),
+            config,
+            gravity,
+            dt,
+            stats,
+        );
+    } else {
+        let mut blocks = shock_order(bodies, contacts, manifolds, config.linear_slop);
+        // The sweeps visit the blocks in shock order: lay the contacts out in that order, so
+        // that they read them in sequence rather than all over the slice.
+        let (mut ordered, origin) = in_block_order(contacts, &mut blocks);
+        let resting = Resting::Manifolds(&blocks);
+        soft_substeps(
+            bodies,
+            &mut ordered,
+            resting,
+            &mut Settling::default(),
+            config,
+            gravity,
+            dt,
+            stats,
+        );
+        for (block, range) in blocks.iter().zip(origin) {
+            contacts[range].copy_from_slice(&ordered[block.range.clone()]);
+        }
+    }
+}
+
+/// True when, after the impact phase, no contact can take any impulse in the hybrid method's
+/// resting phase, which can then be skipped: so an island of one impact and no resting contact
+/// costs one propagation pass and nothing else.
+///
+/// A row of the resting phase pushes only while `v_n + bias < 0`, and its bias is at least
+/// `-max_push_out_speed` (a speculative row's `s/h` is positive). Between substeps only gravity
+/// (with the bodies' extra accelerations, [`SolverBody::acceleration`]) changes `v_n`, by at
+/// least `min(g_n, 0) dt` over the step. So a contact with no accumulated
+/// impulse to warm-start and `v_n + min(g_n, 0) dt >= max_push_out_speed` stays inactive, and
+/// if every contact does, no impulse is applied at all.
+pub(super) fn resting_phase_idle(
+    bodies: &[SolverBody],
+    contacts: &[ContactConstraint],
+    config: &SolverConfig,
+    gravity: Vec3,
+    dt: f32,
+) -> bool {
+    contacts.iter().all(|c| {
+        if c.normal_mass == 0.0 {
+            return true;
+        }
+        // Each body's gravity with its extra acceleration, which can pull a contact apart
+        // (a body with `GravityScale(0.0)` on the floor) or press it together harder.
+        let g = |i: usize| bodies[i].acceleration(gravity);
+        let gn = (g(c.body_b) - g(c.body_a)).dot(c.normal);
+        c.normal_impulse == 0.0
+            && c.normal_velocity(bodies) + gn.min(0.0) * dt >= config.max_push_out_speed
+    })
+}

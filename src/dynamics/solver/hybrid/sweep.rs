@@ -1,0 +1,355 @@
+//! The resting phase's sweep: each manifold solved as a block, the support held as far as it
+//! is held.
+
+use super::*;
+
+/// One sweep of the hybrid method's resting solve: the soft step with each body pair's
+/// manifold (`blocks`, contiguous ranges of `contacts` sharing one normal) solved as a block,
+/// to convergence, before the next, and with only the manifold's mean penetration soft.
+///
+/// Why: a soft row per point lets an off-centre load tilt a face contact, since each corner
+/// sinks in proportion to its share of the load. The contact normal turns with the tilted face,
+/// so the load then pushes the body above sideways, further off centre: with frictionless
+/// contacts this feedback grows exponentially at a rate of about `W / sqrt(k m)` (`W` the load,
+/// `k` the contact's stiffness against tilting, `m` the mass pushed sideways). Point-by-point
+/// Gauss-Seidel also adds a spurious tilt of its own, since the first corner solved takes more
+/// than its share. Measured with Box2D's row-by-row soft step (`SolverMethod::SoftStep`): a
+/// column of 10 cubes topples within 20 s and a light box is squeezed out from under a 100
+/// times heavier one within a second. Solving the block removes the spurious tilt and the
+/// compliance of a single manifold; the lag between manifolds is handled by their order (see
+/// `shock_order`).
+///
+/// The manifold's rows therefore solve the regularised block problem
+///
+/// ```text
+/// v_i' + b_i + c * sum_j(lambda_j') = 0   (lambda_i' >= 0, complementary),
+/// c = K_mean / a2,  K_mean = 1^T A 1 / N^2,
+/// ```
+///
+/// over its `N` penetrating points, with `A` the manifold's Delassus matrix (so `K_mean` is
+/// the inverse effective mass of the manifold's centroid), `b_i = max(bias_rate s_i, -cap)` the
+/// soft push-out, and `a2 = mass_scale / impulse_scale` Box2D's softness coefficient. Summed
+/// over the points this is exactly Box2D's soft constraint for the manifold as a whole,
+/// `v' + b + (K/a2) lambda' = 0`: the manifold sinks by the predictable
+/// `W K_mean / (2 pi f)^2` under a load `W`. The tilt modes carry no regularisation, so they
+/// are rigid: any load distribution is taken without tilting, and differences in penetration
+/// are pushed out at the soft rate. With one point it is Box2D's soft row exactly. Speculative
+/// points (`s > 0`) of a manifold none of whose points penetrates are rigid rows that may close
+/// the gap, as in [`soft_sweep`](crate::dynamics::solver::soft_step::soft_sweep); in a manifold that penetrates they are points of the same
+/// soft plane, in the sum and with their gap `s/h` as bias, so that they close against the
+/// plane as it sinks (the block's rows then change continuously as a point's separation
+/// crosses zero). Why: held at its gap, a point a hair apart (a rounding's 1e-10 m at 1 mm)
+/// is a hinge while the other points sink at the soft rate, and the body turns about it: a
+/// 1 mm die landed on another turned 1e-2 rad in one step (the soft sink, 0.28 mm, is a
+/// quarter of its size). The Gauss-Seidel update of row `i` is
+///
+/// ```text
+/// delta_i = -(v_i + b_i + c * sum_j lambda_j) / (K_ii + c).
+/// ```
+///
+/// Sweeps between manifolds stay Gauss-Seidel (one per call), except that consecutive blocks
+/// supporting the same body are swept together until none changes by more than the
+/// tolerance: a cube resting on two others (in a pyramid) otherwise takes its whole load on
+/// whichever support is solved first, rocks, and, frictionless, pushes its supports apart (a
+/// pyramid of base 10 spread 0.8 m in 20 s that way; 4.8 cm solved together). A block with a
+/// [`Support`] holds that body by [`Block::hold`]: its terms in `A` and its response to the
+/// block's impulses are scaled by `1 - hold` (left out entirely when it is held wholly).
+/// With [`Block::load`] set, `K_mean` is replaced by `min(K_mean, 1 / load)`, so the manifold
+/// sinks by `g / (2 pi f)^2` under the load it carries.
+///
+/// A manifold with friction is solved point by point instead: each penetrating point is
+/// Box2D's soft row, `v_i' + b_i + c_i lambda_i' = 0` with `c_i = K_s / a2`, `K_s = N / load`
+/// (its share of the load) or, where the block carries none, the row's own `K_ii`. The tilt is
+/// then soft too, as stiff as the load it carries allows, and the manifold still sinks by
+/// `g / (2 pi f)^2` under its load. Why: with a rigid tilt, a block stops at `tolerance` with a
+/// residual tilt that becomes slip at the faces, and friction, warm-started from step to step,
+/// stores it and feeds it back: a column of 20 cubes with friction 0.5 rocked in a growing
+/// cone (27 cm in 20 s; 0.23 mm point by point). The rigid tilt exists to stop a tilted face
+/// pushing a frictionless body sideways, which friction resists on its own.
+///
+/// A soft tilt must also hold its load up: tilted by `theta`, a manifold's rows push back with
+/// a moment `W omega^2 <r^2> theta / g` (their load-scaled springs at their distances `r` from
+/// the centroid), while the weight `W` it carries, its centre of mass a lever `l` above the
+/// manifold, tips it by `W l theta`. Soft rows are used only where the first is at least
+/// [`TILT_MARGIN`] times the second, `omega^2 <r^2> / g >= 4 l`; otherwise the block keeps its
+/// rigid tilt. The soft sink `g / omega^2` (0.28 mm) is a fixed length, so this only tells
+/// small bodies from large ones: a 1 m cube carrying a column of 20 has 90 times the moment it
+/// needs, a 1 mm die under two more has 0.6 of it, and with soft rows a stack of three 1 mm dice
+/// toppled within 10 steps.
+pub fn manifold_sweep(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactConstraint],
+    blocks: &[Block],
+    solve: &ManifoldSolve,
+    settling: &mut Settling,
+    rows: &mut Vec<BlockRow>,
+) -> Sweep {
+    settling.begin(bodies.len());
+    let mut sweep = Sweep {
+        largest: 0.0,
+        settled: true,
+    };
+    let mut start = 0;
+    while start < blocks.len() {
+        // Consecutive blocks that support the same body are solved together, block after
+        // block, until none changes by more than the tolerance: a body resting on several
+        // supports takes its load consistently from all of them within the sweep.
+        let upper = blocks[start].upper(contacts);
+        let end = match upper {
+            Some(_) => {
+                start
+                    + blocks[start..]
+                        .iter()
+                        .take_while(|b| b.upper(contacts) == upper)
+                        .count()
+            }
+            None => start + 1,
+        };
+        let passes = if end - start > 1 {
+            solve.max_block_iterations.max(1)
+        } else {
+            1
+        };
+        for pass in 0..passes {
+            let mut largest = 0.0f32;
+            for (k, block) in blocks.iter().enumerate().take(end).skip(start) {
+                let group = &mut contacts[block.range.clone()];
+                let (converged, first, changed) = solve_block(bodies, group, block, solve, rows);
+                largest = largest.max(first);
+                if pass == 0 {
+                    sweep.largest = sweep.largest.max(first);
+                    sweep.settled &= converged;
+                } else if changed {
+                    // A later pass re-solved a block after its neighbours: the marks below
+                    // no longer order the changes, so the sweep cannot count as settled.
+                    sweep.settled = false;
+                }
+                if changed {
+                    settling.changed(bodies, group[0].body_a, group[0].body_b, k);
+                }
+            }
+            if largest <= solve.tolerance {
+                break;
+            }
+        }
+        for block in &blocks[start..end] {
+            for c in contacts[block.range.clone()]
+                .iter_mut()
+                .filter(|c| c.friction > 0.0)
+            {
+                settling.friction_changed |= solve_friction(bodies, c);
+            }
+        }
+        start = end;
+    }
+    sweep.settled &= !settling.friction_changed
+        && blocks.iter().enumerate().all(|(k, block)| {
+            let c = &contacts[block.range.start];
+            settling.undisturbed(c.body_a, c.body_b, k)
+        });
+    sweep
+}
+
+/// Applies `+impulse` to B and `-impulse` to A along each body's response direction, with its
+/// angular response scaled by its factor.
+#[inline]
+pub(super) fn apply_response(
+    c: &ContactConstraint,
+    bodies: &mut [SolverBody],
+    impulse: f32,
+    r: &Response,
+) {
+    let (a, b) = crate::dynamics::solver::body::pair_mut(bodies, c.body_a, c.body_b);
+    let (dir_a, dir_b) = (
+        r.a.direction.unwrap_or(c.normal),
+        r.b.direction.unwrap_or(c.normal),
+    );
+    apply_row_impulse(
+        &mut a.linear_velocity,
+        &mut a.angular_velocity,
+        a.inverse_mass,
+        (dir_a != Vec3::ZERO).then(|| -(impulse * dir_a)),
+        (c.angular && r.a.angular > 0.0).then(|| (-(r.a.angular * impulse), c.ang_a)),
+    );
+    apply_row_impulse(
+        &mut b.linear_velocity,
+        &mut b.angular_velocity,
+        b.inverse_mass,
+        (dir_b != Vec3::ZERO).then(|| impulse * dir_b),
+        (c.angular && r.b.angular > 0.0).then_some((r.b.angular * impulse, c.ang_b)),
+    );
+}
+
+/// Whether a manifold's soft tilt holds its load up with [`TILT_MARGIN`] to spare (see
+/// [`manifold_sweep`]): `omega^2 <r^2> / g >= TILT_MARGIN * lever`, `<r^2>` its
+/// [`Block::spread`]. A manifold that carries no load has its own effective mass's stiffness,
+/// Box2D's soft row, and always stands.
+pub(super) fn soft_tilt_stands(block: &Block, solve: &ManifoldSolve) -> bool {
+    if block.load <= 0.0 || block.lever <= 0.0 {
+        return true;
+    }
+    solve.tilt_stiffness * block.spread >= TILT_MARGIN * block.lever
+}
+
+/// Solves one manifold block to convergence (see [`manifold_sweep`]). Returns whether it
+/// converged exactly, the largest change of its first pass, and whether any velocity changed.
+pub(super) fn solve_block(
+    bodies: &mut [SolverBody],
+    group: &mut [ContactConstraint],
+    block: &Block,
+    solve: &ManifoldSolve,
+    rows: &mut Vec<BlockRow>,
+) -> (bool, f32, bool) {
+    // The support responds along its free direction, its rotation scaled by `1 - hold`.
+    let response = block.response(group[0].normal);
+    let (fa, fb) = (response.a.angular, response.b.angular);
+    let linear_a = response.a.along_normal * bodies[group[0].body_a].inverse_mass;
+    let linear_b = response.b.along_normal * bodies[group[0].body_b].inverse_mass;
+    let linear = linear_a + linear_b;
+    // `K_ii` of row `c` with the support's response scaled.
+    let diagonal = |c: &ContactConstraint| {
+        if c.angular {
+            row_inverse_mass(
+                [linear_a, linear_b],
+                [fa * c.rn_a.dot(c.ang_a), fb * c.rn_b.dot(c.ang_b)],
+            )
+        } else {
+            linear
+        }
+    };
+    rows.clear();
+    // Sums over the soft points: count, r x n and I^-1 (r x n) of each body, and the impulse.
+    let mut count = 0u32;
+    let [mut rn_a, mut ang_a, mut rn_b, mut ang_b] = [Vec3::ZERO; 4];
+    let mut total = 0.0f32;
+    for c in group.iter() {
+        if c.normal_mass == 0.0 {
+            rows.push(None);
+            continue;
+        }
+        let s = c.current_separation(bodies);
+        if solve
+            .leave_impacts
+            .is_some_and(|t| s > 0.0 && c.normal_velocity(bodies) < -t)
+        {
+            rows.push(None);
+            continue;
+        }
+        let row = if s > 0.0 {
+            (s * solve.inv_h, false)
+        } else if let Some(soft) = solve.soft {
+            (
+                (soft.bias_rate * s).max(-solve.max_push_out),
+                soft.impulse_scale > 0.0,
+            )
+        } else {
+            (0.0, false)
+        };
+        if row.1 {
+            count += 1;
+            rn_a += c.rn_a;
+            ang_a += c.ang_a;
+            rn_b += c.rn_b;
+            ang_b += c.ang_b;
+            total += c.normal_impulse;
+        }
+        rows.push(Some(row));
+    }
+    // A manifold that penetrates is one soft plane: its speculative points (`s > 0`) are soft
+    // rows too, with their gap `s/h` as bias, so that they close against the plane as it
+    // sinks. See `manifold_sweep`.
+    if count > 0 {
+        for (c, row) in group.iter().zip(rows.iter_mut()) {
+            if let Some((_, soft)) = row
+                && !*soft
+            {
+                *soft = true;
+                total += c.normal_impulse;
+            }
+        }
+    }
+    // With friction, each penetrating point is its own soft row, Box2D's, with the stiffness of
+    // its share of the load the block carries (`load / N`), or of its own effective mass where
+    // the block carries none: the tilt is soft, and the manifold still sinks by `g / (2 pi f)^2`
+    // under its load. See `manifold_sweep`.
+    let pointwise = group[0].friction > 0.0 && soft_tilt_stands(block, solve);
+    let share = if block.load > 0.0 && count > 0 {
+        count as f32 / block.load
+    } else {
+        0.0
+    };
+    let softness = solve
+        .soft
+        .map_or(0.0, |soft| soft.impulse_scale / soft.mass_scale);
+    // c = K_mean / a2, K_mean = 1^T A 1 / N^2 (the points share the normal, so the linear part
+    // of 1^T A 1 is N^2 (1/m_A + 1/m_B)): the `K` of the manifold's centroid, from the rows'
+    // `r x n` and `I^-1 (r x n)` terms summed over the points (each row's own `K` is
+    // `row_inverse_mass`'s, in `diagonal` above).
+    let coupling = match (solve.soft, count) {
+        // Point by point, the rows do not use it.
+        _ if pointwise => 0.0,
+        (Some(soft), n) if n > 0 => {
+            let n2 = (n * n) as f32;
+            let sum = row_inverse_mass(
+                [n2 * linear_a, n2 * linear_b],
+                [fa * rn_a.dot(ang_a), fb * rn_b.dot(ang_b)],
+            );
+            let mut k = sum / n2;
+            if block.load > 0.0 {
+                k = k.min(1.0 / block.load);
+            }
+            k * soft.impulse_scale / soft.mass_scale
+        }
+        _ => 0.0,
+    };
+
+    let mut first = 0.0f32;
+    let mut changed = false;
+    // Every row of the block touches the same two bodies, so a row stays satisfied (see
+    // [`Settling`]) unless a later row changes something: the pass has converged when no row
+    // after the first taking part changed.
+    let first_row = rows.iter().position(Option::is_some);
+    for iteration in 0..solve.max_block_iterations.max(1) {
+        let mut last_changed = None;
+        let mut largest = 0.0f32;
+        for (i, (c, row)) in group.iter_mut().zip(rows.iter()).enumerate() {
+            let Some((bias, soft)) = *row else { continue };
+            let k = diagonal(c);
+            if k <= 0.0 {
+                continue;
+            }
+            let vn = c.normal_velocity(bodies);
+            let (residual, diagonal) = if soft && pointwise {
+                let own = if share > 0.0 { share } else { k } * softness;
+                (vn + bias + own * c.normal_impulse, k + own)
+            } else if soft {
+                (vn + bias + coupling * total, k + coupling)
+            } else {
+                (vn + bias, k)
+            };
+            let new = (c.normal_impulse - residual / diagonal).max(0.0);
+            let delta = new - c.normal_impulse;
+            if delta != 0.0 {
+                c.normal_impulse = new;
+                apply_response(c, bodies, delta, &response);
+                if soft {
+                    total += delta;
+                }
+                largest = largest.max(delta.abs() * k);
+                last_changed = Some(i);
+                changed = true;
+            }
+            c.max_normal_impulse = c.max_normal_impulse.max(new);
+        }
+        if iteration == 0 {
+            first = largest;
+        }
+        if last_changed <= first_row {
+            return (true, first, changed);
+        }
+        if largest <= solve.tolerance {
+            break;
+        }
+    }
+    (false, first, changed)
+}

@@ -1,0 +1,431 @@
+//! Unit tests of the hybrid method's resting phase.
+
+use super::super::contact::prepare_contacts;
+use super::super::soft_step::soft_sweep;
+use super::*;
+use bevy::math::{BVec3, Mat3, Quat};
+
+fn cube(motion: Motion, mass: f32) -> SolverBody {
+    SolverBody::new(motion, Vec3::ZERO, Quat::IDENTITY).with_mass(
+        1.0 / mass,
+        Mat3::from_diagonal(Vec3::splat(6.0 / mass)),
+        true,
+        BVec3::FALSE,
+    )
+}
+
+/// `resting_phase_idle` counts each body's extra acceleration with gravity: a ball leaving
+/// a static floor at `v_n` with `max_push_out_speed` 3 m/s stays out of reach of any push
+/// over a 1/60 s step iff `v_n + min(g_n, 0) dt >= 3`. At 3.2 m/s under `g` alone
+/// (3.2 - 0.16 = 3.04) it is idle; with an extra `-4 g` (3.2 - 0.82 = 2.38) it is not. At
+/// 3.05 m/s it is not under `g` (2.89), and is under an extra `+2 g`, which pulls it away
+/// from the floor (`g_n > 0`: its `v_n` only grows).
+#[test]
+fn idle_check_counts_extra_accelerations() {
+    let g = Vec3::new(0.0, -9.81, 0.0);
+    let config = SolverConfig::default();
+    let idle = |vn: f32, extra: Vec3| {
+        let mut ball = cube(Motion::Dynamic, 1.0).with_velocity(Vec3::Y * vn, Vec3::ZERO);
+        ball.position = Vec3::Y * 0.5;
+        ball.extra_acceleration = extra;
+        let bodies = [cube(Motion::Static, 1.0), ball];
+        let mut contacts = [ContactConstraint::new(
+            0,
+            1,
+            Vec3::ZERO,
+            Vec3::Y,
+            0.0,
+            0.0,
+            0.0,
+        )];
+        prepare_contacts(&bodies, &mut contacts);
+        resting_phase_idle(&bodies, &contacts, &config, g, 1.0 / 60.0)
+    };
+    assert!(idle(3.2, Vec3::ZERO));
+    assert!(!idle(3.2, 4.0 * g));
+    assert!(!idle(3.05, Vec3::ZERO));
+    assert!(idle(3.05, -2.0 * g));
+}
+
+/// Levels worked out by hand: a static floor (0) and a kinematic platform (5) are level 0;
+/// a column 1, 2, 3 on the floor is 1, 2, and 2 for 3, which also touches 4; body 4 rests on
+/// 3 and on the platform, so it is 1 (its lowest neighbour, not the column below it); 6
+/// hangs on 4 only (2); 7 touches
+/// nothing fixed through any chain, nor does 8 that rests on it (u32::MAX). Pairs listed
+/// top-down and twice, so one pass in list order would not find the answer.
+#[test]
+fn levels_are_hops_from_the_nearest_fixed_body() {
+    let mut bodies: Vec<SolverBody> = (0..9).map(|_| cube(Motion::Dynamic, 1.0)).collect();
+    bodies[0] = cube(Motion::Static, 1.0);
+    bodies[5] = cube(Motion::Kinematic, 1.0);
+    let pairs = [
+        (8, 7),
+        (6, 4),
+        (3, 4),
+        (2, 3),
+        (1, 2),
+        (0, 1),
+        (4, 5),
+        (3, 2),
+    ];
+    let level = levels(&bodies, pairs.iter().copied());
+    assert_eq!(level, vec![0, 1, 2, 2, 1, 0, 2, u32::MAX, u32::MAX]);
+}
+
+/// One single-point manifold per body pair (normals from the first body to the second).
+fn manifolds(pairs: &[(usize, usize)]) -> (Vec<ContactConstraint>, Vec<Range<usize>>) {
+    let contacts = pairs
+        .iter()
+        .map(|&(a, b)| ContactConstraint::new(a, b, Vec3::ZERO, Vec3::Y, 0.0, 0.0, 0.0))
+        .collect();
+    let ranges = (0..pairs.len()).map(|i| i..i + 1).collect();
+    (contacts, ranges)
+}
+
+/// A column (ground 0, then cubes of 1, 2 and 3 kg, listed top down): blocks come out
+/// ground up, each supported by the body below and carrying the mass above it: 6, 5, 3 kg.
+#[test]
+fn column_loads_are_the_mass_above() {
+    let bodies = [
+        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+        cube(Motion::Dynamic, 1.0),
+        cube(Motion::Dynamic, 2.0),
+        cube(Motion::Dynamic, 3.0),
+    ];
+    let (mut contacts, ranges) = manifolds(&[(2, 3), (1, 2), (0, 1)]);
+    prepare_contacts(&bodies, &mut contacts);
+    let blocks = shock_order(&bodies, &contacts, &ranges, 0.005);
+    let order: Vec<(usize, Support, f32)> = blocks
+        .iter()
+        .map(|b| (b.range.start, b.support, b.load))
+        .collect();
+    assert_eq!(
+        order,
+        [
+            (2, Support::A, 6.0),
+            (1, Support::A, 5.0),
+            (0, Support::A, 3.0)
+        ]
+    );
+}
+
+/// A small pyramid: cubes 1 and 2 (1 kg) on the ground, cube 3 (2 kg) on both, and cube 4
+/// (1 kg) touching cube 1 from the side at the same level. Cube 3's load is shared equally
+/// (1 kg per support), each ground manifold carries its cube plus that share (2 kg), and
+/// the side contact has no support and no load. Cube 3's two manifolds are adjacent.
+#[test]
+fn shared_loads_split_between_supports() {
+    let bodies = [
+        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+        cube(Motion::Dynamic, 1.0),
+        cube(Motion::Dynamic, 1.0),
+        cube(Motion::Dynamic, 2.0),
+        cube(Motion::Dynamic, 1.0),
+    ];
+    let (mut contacts, ranges) = manifolds(&[(1, 3), (0, 1), (4, 1), (2, 3), (0, 2), (0, 4)]);
+    prepare_contacts(&bodies, &mut contacts);
+    let blocks = shock_order(&bodies, &contacts, &ranges, 0.005);
+    let load = |start: usize| blocks.iter().find(|b| b.range.start == start).unwrap();
+    assert_eq!(load(1).load, 2.0);
+    assert_eq!(load(4).load, 2.0);
+    assert_eq!(load(5).load, 1.0);
+    assert_eq!(load(0).load, 1.0);
+    assert_eq!(load(3).load, 1.0);
+    assert_eq!((load(2).support, load(2).load), (Support::Neither, 0.0));
+    let tops: Vec<usize> = blocks
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.upper(&contacts) == Some(3))
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(tops.len(), 2);
+    assert_eq!(tops[1], tops[0] + 1);
+}
+/// The projection onto a cone: a vector inside the cone of three generators is its own
+/// projection; outside a single generator's ray it is `(n . g) g`; between two generators
+/// (outside their plane) it lies on their face; opposite every generator it is zero.
+#[test]
+fn cone_projection_cases() {
+    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+    let n = Vec3::new(1.0, 2.0, 3.0).normalize();
+    let (p, used) = cone_projection(n, &[x, y, z]);
+    assert!((p - n).length() < 1e-6 && used == 0b111);
+    let n = Vec3::new(0.6, 0.8, 0.0);
+    let (p, used) = cone_projection(n, &[y]);
+    assert!((p - 0.8 * y).length() < 1e-6 && used == 1);
+    // Between x and y, with a z part: the face's projection drops the z part.
+    let n = Vec3::new(0.48, 0.64, 0.6);
+    let (p, used) = cone_projection(n, &[x, y]);
+    assert!((p - Vec3::new(0.48, 0.64, 0.0)).length() < 1e-6 && used == 0b11);
+    let (p, used) = cone_projection(-y, &[y, x]);
+    assert_eq!((p, used), (Vec3::ZERO, 0));
+}
+
+/// A ball of 1 kg on static ground, struck from above along `n` at angle `theta` from the
+/// vertical: its hold is `cos^2 theta` and it is free to move along `n - cos theta y` (the
+/// projection of `n` across the ground normal), exactly the frictionless rigid answer. A
+/// ball on another ball that rests squarely on the ground (a column of two) is held wholly
+/// along the vertical, and a ball with nothing below it (touching only speculatively) not
+/// at all.
+#[test]
+fn holds_follow_the_support_cone() {
+    let ball = |y: f32| {
+        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, y, 0.0), Quat::IDENTITY).with_mass(
+            1.0,
+            Mat3::from_diagonal(Vec3::splat(10.0)),
+            true,
+            BVec3::FALSE,
+        )
+    };
+    let theta = 0.9f32;
+    let n = Vec3::new(theta.sin(), theta.cos(), 0.0);
+    let bodies = [
+        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+        ball(0.5),
+        ball(0.5 + 1.0),
+    ];
+    let floor = ContactConstraint::new(0, 1, Vec3::ZERO, Vec3::Y, 0.0, 0.0, 0.0);
+    let hit = ContactConstraint::new(1, 2, Vec3::new(0.0, 0.5, 0.0) + 0.5 * n, n, 0.0, 0.0, 0.0);
+    let mut contacts = [floor, hit];
+    prepare_contacts(&bodies, &mut contacts);
+    let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
+    let struck = blocks.iter().find(|b| b.range == (1..2)).unwrap();
+    let c2 = theta.cos().powi(2);
+    assert!((struck.hold - c2).abs() < 1e-6, "{}", struck.hold);
+    assert!((struck.push - (n - theta.cos() * Vec3::Y)).length() < 1e-6);
+    // A column of two: held wholly.
+    let column = ContactConstraint::new(1, 2, Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 0.0, 0.0, 0.0);
+    let mut contacts = [floor, column];
+    prepare_contacts(&bodies, &mut contacts);
+    let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
+    let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
+    assert!((top.hold - 1.0).abs() < 1e-6 && top.push.length() < 1e-6);
+    // The lower ball only speculatively on the ground (a 1 cm gap): not held.
+    let gap = ContactConstraint::new(0, 1, Vec3::ZERO, Vec3::Y, 0.01, 0.0, 0.0);
+    let mut contacts = [gap, column];
+    prepare_contacts(&bodies, &mut contacts);
+    let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
+    let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
+    assert_eq!(top.hold, 0.0);
+}
+
+/// A friction manifold's soft tilt holds its load up where `omega^2 <r^2> / g` is at least
+/// four times the lever (worked by hand below), whatever its size otherwise.
+#[test]
+fn soft_tilt_stands_by_size_against_lever() {
+    // A face of four corners at +-h: <r^2> = h^2 (2 h^2 from the centroid, over two).
+    let face = |h: f32| -> Vec<ContactConstraint> {
+        [(-h, -h), (h, -h), (h, h), (-h, h)]
+            .iter()
+            .map(|&(x, z)| {
+                ContactConstraint::new(0, 1, Vec3::new(x, 0.0, z), Vec3::Y, 0.0, 0.0, 0.5)
+            })
+            .collect()
+    };
+    // The block carrying a load whose centre of mass stands `l` above the face's centroid,
+    // with its lever and spread as the solver derives them (`carried_loads`).
+    let block = |h: f32, l: f32| {
+        let (lever, spread) = lever(&face(h), 1, Vec3::new(0.0, l, 0.0));
+        assert!((lever - l).abs() <= 1e-6 * l, "lever {lever} for {l}");
+        assert!(
+            (spread - h * h).abs() <= 1e-6 * h * h,
+            "spread {spread} for {h}"
+        );
+        Block {
+            range: 0..4,
+            support: Support::A,
+            hold: 1.0,
+            push: Vec3::Y,
+            load: 1.0,
+            lever,
+            spread,
+            touching: true,
+        }
+    };
+    // 30 Hz over 9.81 m/s^2: omega^2 / g = 3621.9 1/m.
+    let omega = 2.0 * std::f32::consts::PI * 30.0;
+    let solve = ManifoldSolve {
+        soft: None,
+        inv_h: 240.0,
+        max_push_out: 3.0,
+        leave_impacts: None,
+        max_block_iterations: 64,
+        tolerance: 1e-4,
+        tilt_stiffness: omega * omega / 9.81,
+    };
+    // A 1 m cube's face under a column of 20 (centre of mass 10 m up): 3621.9 x 0.25 = 905
+    // against 4 x 10 = 40.
+    assert!(soft_tilt_stands(&block(0.5, 10.0), &solve));
+    // A 1 mm die's face under two more (lever 1.5 mm): 3621.9 x 2.5e-7 = 9.1e-4 against
+    // 4 x 1.5e-3 = 6e-3.
+    assert!(!soft_tilt_stands(&block(5e-4, 1.5e-3), &solve));
+    // The bound: h^2 omega^2 / g = 4 l, for h = 0.5, at l = 226.4 m.
+    let l = 0.25 * omega * omega / 9.81 / TILT_MARGIN;
+    assert!(soft_tilt_stands(&block(0.5, l * 0.999), &solve));
+    assert!(!soft_tilt_stands(&block(0.5, l * 1.001), &solve));
+    // No load: Box2D's own-mass row, always.
+    let mut free = block(5e-4, 1e3);
+    free.load = 0.0;
+    assert!(soft_tilt_stands(&free, &solve));
+}
+
+fn box_on_ground(corners: &[Vec3]) -> (Vec<SolverBody>, Vec<ContactConstraint>) {
+    use bevy::math::{BVec3, Mat3, Quat};
+    let bodies = vec![
+        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.49, 0.0), Quat::IDENTITY)
+            .with_mass(
+                1.0,
+                Mat3::from_diagonal(Vec3::splat(6.0)),
+                true,
+                BVec3::FALSE,
+            )
+            .with_velocity(Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.3, 0.0, -0.2)),
+    ];
+    let mut contacts: Vec<_> = corners
+        .iter()
+        .map(|&p| ContactConstraint::new(0, 1, p, Vec3::Y, -0.01, 0.0, 0.0))
+        .collect();
+    prepare_contacts(&bodies, &mut contacts);
+    (bodies, contacts)
+}
+
+/// One `manifold_sweep` over `contacts` as a single two-body block (no support, no load) at
+/// `h = 1/240` s with Box2D's 3 m/s push-out cap, iterated to `tolerance`.
+fn sweep_one_block(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactConstraint],
+    soft: Softness,
+    tolerance: f32,
+) -> Sweep {
+    let solve = ManifoldSolve {
+        soft: Some(soft),
+        inv_h: 240.0,
+        max_push_out: 3.0,
+        leave_impacts: None,
+        max_block_iterations: 64,
+        tolerance,
+        tilt_stiffness: f32::INFINITY,
+    };
+    let blocks = [Block {
+        range: 0..contacts.len(),
+        support: Support::Neither,
+        hold: 0.0,
+        push: Vec3::ZERO,
+        load: 0.0,
+        lever: 0.0,
+        spread: 0.0,
+        touching: true,
+    }];
+    manifold_sweep(
+        bodies,
+        contacts,
+        &blocks,
+        &solve,
+        &mut Settling::default(),
+        &mut Vec::new(),
+    )
+}
+
+/// A manifold block of one point is Box2D's soft row exactly (see `manifold_sweep`): the
+/// same velocities and impulse, to f32 rounding (1e-6), for a penetrating, approaching,
+/// spinning box corner.
+#[test]
+fn manifold_block_of_one_point_is_the_soft_row() {
+    let soft = Softness::new(30.0, 10.0, 1.0 / 240.0);
+    let (mut rows_bodies, mut rows) = box_on_ground(&[Vec3::new(0.5, -0.01, 0.5)]);
+    let (mut block_bodies, mut block) = (rows_bodies.clone(), rows.clone());
+    soft_sweep(
+        &mut rows_bodies,
+        &mut rows,
+        Some(&soft),
+        240.0,
+        3.0,
+        None,
+        &mut Settling::default(),
+    );
+    let sweep = sweep_one_block(&mut block_bodies, &mut block, soft, 1e-6);
+    assert!(sweep.settled, "one row settles in one pass");
+    assert!((rows[0].normal_impulse - block[0].normal_impulse).abs() <= 1e-6);
+    let (a, b) = (&rows_bodies[1], &block_bodies[1]);
+    assert!((a.linear_velocity - b.linear_velocity).length() <= 1e-6);
+    assert!((a.angular_velocity - b.angular_velocity).length() <= 1e-6);
+}
+
+/// A face manifold takes any load distribution without tilting: four corners of a spinning
+/// box, penetrating equally, end with no relative velocity between the corners (the tilt
+/// modes are rigid; 1e-4 m/s is the block tolerance), while the mean obeys the soft law
+/// `v' + b + c sum(lambda) = 0` of the manifold as a whole.
+#[test]
+fn manifold_block_is_rigid_in_tilt() {
+    let soft = Softness::new(30.0, 10.0, 1.0 / 240.0);
+    let corners =
+        [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)].map(|(x, z)| Vec3::new(x, -0.01, z));
+    let (mut bodies, mut contacts) = box_on_ground(&corners);
+    sweep_one_block(&mut bodies, &mut contacts, soft, 1e-7);
+    let v: Vec<f32> = contacts
+        .iter()
+        .map(|c| c.normal_velocity(&bodies))
+        .collect();
+    for vi in &v {
+        assert!((vi - v[0]).abs() <= 1e-4, "{v:?}");
+    }
+    // Mean law: v' + b + (K/a2) sum(lambda) = 0 with K = 1/m for the centroid under the
+    // centre of mass; b = bias_rate s.
+    let total: f32 = contacts.iter().map(|c| c.normal_impulse).sum();
+    let a2 = soft.mass_scale / soft.impulse_scale;
+    let residual = v[0] + soft.bias_rate * -0.01 + total / a2;
+    assert!(residual.abs() <= 1e-4, "{residual}");
+}
+
+/// A face manifold with three corners touching (`s = 0`) and the fourth a hair apart
+/// (`s = 1e-6` m, 16 ulps of the 0.5 m anchors of this 1 m box), carrying the weight of a
+/// 1 kg box that lands at `g h` (0.041 m/s), sinks as one plane: the plane sinks 13 um in
+/// the substep, far past the hair, so the fourth corner sinks with the others, only
+/// faster by its gap's `s/h` (2.4e-4 m/s), and the box hardly turns. Measured: corner
+/// velocities within 1.2e-4 m/s of each other, the box turning at 9.5e-5 rad/s; bounds
+/// `s/h` plus the block tolerance (1e-4 m/s), and 2e-4 rad/s (that spread over the 1.4 m
+/// diagonal, with margin). Before, the corner a hair apart was a rigid row held at its gap
+/// while the other three sank at the soft rate: a hinge, corner velocities 1.4e-3 m/s apart
+/// and the box turning at 9.7e-4 rad/s. The soft sink is a fixed 0.28 mm whatever the
+/// size, so such a hinge tilts a small body the more: a 1 mm die landed on another turned
+/// 1e-2 rad in one step (corners 1e-10 m apart, at 1 mm 2 ulps).
+#[test]
+fn manifold_block_corner_a_hair_apart_sinks_with_the_rest() {
+    use bevy::math::{BVec3, Mat3, Quat};
+    let soft = Softness::new(30.0, 10.0, 1.0 / 240.0);
+    let mut bodies = vec![
+        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.5, 0.0), Quat::IDENTITY)
+            .with_mass(
+                1.0,
+                Mat3::from_diagonal(Vec3::splat(6.0)),
+                true,
+                BVec3::FALSE,
+            )
+            .with_velocity(Vec3::new(0.0, -9.81 / 240.0, 0.0), Vec3::ZERO),
+    ];
+    let gap = 1e-6;
+    let corners = [
+        (0.5, 0.5, gap),
+        (0.5, -0.5, 0.0),
+        (-0.5, 0.5, 0.0),
+        (-0.5, -0.5, 0.0),
+    ];
+    let mut contacts: Vec<_> = corners
+        .into_iter()
+        .map(|(x, z, s)| ContactConstraint::new(0, 1, Vec3::new(x, 0.0, z), Vec3::Y, s, 0.0, 0.0))
+        .collect();
+    prepare_contacts(&bodies, &mut contacts);
+    sweep_one_block(&mut bodies, &mut contacts, soft, 1e-7);
+    let v: Vec<f32> = contacts
+        .iter()
+        .map(|c| c.normal_velocity(&bodies))
+        .collect();
+    let spread =
+        v.iter().fold(f32::MIN, |m, &x| m.max(x)) - v.iter().fold(f32::MAX, |m, &x| m.min(x));
+    assert!(spread <= gap * 240.0 + 1e-4, "{v:?}");
+    assert!(v.iter().all(|&x| x < -1e-3), "the plane sinks: {v:?}");
+    let w = bodies[1].angular_velocity.length();
+    assert!(w <= 2e-4, "turned at {w} rad/s");
+}
