@@ -108,10 +108,12 @@ impl SpatialQuery<'_, '_> {
         filter.test(c.entity, c.layers) && self.live.contains(c.entity)
     }
 
-    /// The nearest hit (of least entity among equally near ones) of a cast on the colliders
-    /// `filter` and `predicate` admit: `hit` tests one collider, `entry(aabb, bound)` gives the
-    /// distance (m) at which the cast enters a box, if it does within `bound`, which shrinks
-    /// to the nearest hit so far (see [`SpatialQueryColliders::nearest_candidates`]).
+    /// The nearest hit (of least entity among equally near ones) of a cast, or the nearest
+    /// projection of a point, on the colliders `filter` and `predicate` admit: `hit` tests one
+    /// collider, `entry(aabb, bound)` gives a lower bound (m) on the distance of anything in a
+    /// box (where the cast enters it, the point's distance to it), if it is within `bound`,
+    /// which shrinks to the nearest hit so far (see
+    /// [`SpatialQueryColliders::nearest_candidates`]).
     fn nearest_hit<H: Hit>(
         &self,
         filter: &SpatialQueryFilter,
@@ -385,31 +387,25 @@ impl SpatialQuery<'_, '_> {
         predicate: &dyn Fn(Entity) -> bool,
     ) -> Option<PointProjection> {
         check_point("point", point).ok()?;
-        let bound = Cell::new(f32::INFINITY);
-        let mut best: Option<(f32, PointProjection)> = None;
-        self.colliders.candidates(
-            &self.tree,
-            |aabb| aabb.distance_to_local_point(point, true) <= bound.get(),
+        // A point's distance to a box is a lower bound on its distance to anything inside.
+        self.nearest_hit(
+            filter,
+            predicate,
+            f32::INFINITY,
+            |aabb, _| Some(aabb.distance_to_local_point(point, true)),
             |c| {
-                if !self.accepts(c, filter) || !predicate(c.entity) {
-                    return;
-                }
                 let projection = c.shape.project_point(&c.pose, point, solid);
-                let distance = projection.point.distance(point);
-                if best.is_none_or(|(d, b)| closer(distance, c.entity, d, b.entity)) {
-                    bound.set(distance);
-                    best = Some((
-                        distance,
-                        PointProjection {
-                            entity: c.entity,
-                            point: projection.point,
-                            is_inside: projection.is_inside,
-                        },
-                    ));
-                }
+                Some(Projected(
+                    projection.point.distance(point),
+                    PointProjection {
+                        entity: c.entity,
+                        point: projection.point,
+                        is_inside: projection.is_inside,
+                    },
+                ))
             },
-        );
-        best.map(|(_, projection)| projection)
+        )
+        .map(|Projected(_, projection)| projection)
     }
 
     /// The colliders `filter` admits that contain `point` (m), by entity.
@@ -559,6 +555,15 @@ impl Hit for RayHitData {
 impl Hit for ShapeHitData {
     fn order(&self) -> (f32, Entity) {
         (self.distance, self.entity)
+    }
+}
+
+/// A point's projection on a collider and its distance from the point (m), ordered as a hit.
+struct Projected(f32, PointProjection);
+
+impl Hit for Projected {
+    fn order(&self) -> (f32, Entity) {
+        (self.0, self.1.entity)
     }
 }
 
