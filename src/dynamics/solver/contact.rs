@@ -183,9 +183,21 @@ impl ContactConstraint {
     #[inline]
     pub fn normal_velocity(&self, bodies: &[SolverBody]) -> f32 {
         let (a, b) = (&bodies[self.body_a], &bodies[self.body_b]);
-        let mut vn = (b.linear_velocity - a.linear_velocity).dot(self.normal) + self.drive;
+        self.normal_velocity_of(
+            (a.linear_velocity, a.angular_velocity),
+            (b.linear_velocity, b.angular_velocity),
+            self.drive,
+        )
+    }
+
+    /// [`normal_velocity`](Self::normal_velocity) for the linear and angular velocities `a` of
+    /// body A and `b` of B (the bodies' own, or another velocity of theirs, as the push-out's
+    /// pseudo-velocity), plus `drive`.
+    #[inline]
+    pub fn normal_velocity_of(&self, a: (Vec3, Vec3), b: (Vec3, Vec3), drive: f32) -> f32 {
+        let mut vn = (b.0 - a.0).dot(self.normal) + drive;
         if self.angular {
-            vn += b.angular_velocity.dot(self.rn_b) - a.angular_velocity.dot(self.rn_a);
+            vn += b.1.dot(self.rn_b) - a.1.dot(self.rn_a);
         }
         vn
     }
@@ -194,19 +206,44 @@ impl ContactConstraint {
     #[inline]
     pub fn apply_normal_impulse(&self, bodies: &mut [SolverBody], impulse: f32) {
         let (a, b) = pair_mut(bodies, self.body_a, self.body_b);
+        self.apply_normal_impulse_to(
+            (
+                &mut a.linear_velocity,
+                &mut a.angular_velocity,
+                a.inverse_mass,
+            ),
+            (
+                &mut b.linear_velocity,
+                &mut b.angular_velocity,
+                b.inverse_mass,
+            ),
+            impulse,
+        );
+    }
+
+    /// [`apply_normal_impulse`](Self::apply_normal_impulse) to the linear and angular
+    /// velocities of A and B given with their inverse masses (the bodies' own, or another
+    /// velocity of theirs, as the push-out's pseudo-velocity).
+    #[inline]
+    pub fn apply_normal_impulse_to(
+        &self,
+        a: (&mut Vec3, &mut Vec3, f32),
+        b: (&mut Vec3, &mut Vec3, f32),
+        impulse: f32,
+    ) {
         let p = impulse * self.normal;
         let angular = self.angular;
         apply_row_impulse(
-            &mut a.linear_velocity,
-            &mut a.angular_velocity,
-            a.inverse_mass,
+            a.0,
+            a.1,
+            a.2,
             Some(-p),
             angular.then_some((-impulse, self.ang_a)),
         );
         apply_row_impulse(
-            &mut b.linear_velocity,
-            &mut b.angular_velocity,
-            b.inverse_mass,
+            b.0,
+            b.1,
+            b.2,
             Some(p),
             angular.then_some((impulse, self.ang_b)),
         );

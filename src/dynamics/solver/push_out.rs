@@ -15,7 +15,7 @@
 
 use bevy::prelude::*;
 
-use crate::impulse::{apply_row_impulse, row_impulse};
+use crate::impulse::row_impulse;
 
 use super::body::{Motion, SolverBody, pair_mut};
 use super::contact::ContactConstraint;
@@ -160,33 +160,16 @@ impl PushOut {
 
     /// The row's normal pseudo-velocity, m/s.
     fn normal_velocity(&self, c: &ContactConstraint) -> f32 {
-        let (va, wa) = self.velocities[c.body_a];
-        let (vb, wb) = self.velocities[c.body_b];
-        let mut vn = (vb - va).dot(c.normal);
-        if c.angular {
-            vn += wb.dot(c.rn_b) - wa.dot(c.rn_a);
-        }
-        vn
+        c.normal_velocity_of(self.velocities[c.body_a], self.velocities[c.body_b], 0.0)
     }
 
     /// Applies `+impulse n` to B's pseudo-velocity and `-impulse n` to A's.
     fn apply(&mut self, c: &ContactConstraint, bodies: &[SolverBody], impulse: f32) {
-        let p = impulse * c.normal;
         let (a, b) = pair_mut(&mut self.velocities, c.body_a, c.body_b);
-        let turn = |j: f32, ang: Vec3| c.angular.then_some((j, ang));
-        apply_row_impulse(
-            &mut a.0,
-            &mut a.1,
-            bodies[c.body_a].inverse_mass,
-            Some(-p),
-            turn(-impulse, c.ang_a),
-        );
-        apply_row_impulse(
-            &mut b.0,
-            &mut b.1,
-            bodies[c.body_b].inverse_mass,
-            Some(p),
-            turn(impulse, c.ang_b),
+        c.apply_normal_impulse_to(
+            (&mut a.0, &mut a.1, bodies[c.body_a].inverse_mass),
+            (&mut b.0, &mut b.1, bodies[c.body_b].inverse_mass),
+            impulse,
         );
     }
 }
