@@ -113,16 +113,8 @@ impl SpatialQueryColliders {
             }
             TraversalAction::Continue
         });
-        for &leaf in &self.stragglers {
-            if let Some(c) = self.at_leaf(tree, leaf)
-                && c.hittable
-                && enter(&widened(&c.aabb))
-            {
-                visit(c);
-            }
-        }
-        for c in &self.loose {
-            if c.hittable && enter(&widened(&c.aabb)) {
+        for c in self.outside_tree(tree) {
+            if enter(&widened(&c.aabb)) {
                 visit(c);
             }
         }
@@ -169,19 +161,24 @@ impl SpatialQueryColliders {
                 None::<f32>
             },
         );
-        for &leaf in &self.stragglers {
-            if let Some(c) = self.at_leaf(tree, leaf)
-                && c.hittable
-                && reach(&c.aabb).is_some()
-            {
+        for c in self.outside_tree(tree) {
+            if reach(&c.aabb).is_some() {
                 visit(c);
             }
         }
-        for c in &self.loose {
-            if c.hittable && reach(&c.aabb).is_some() {
-                visit(c);
-            }
-        }
+    }
+
+    /// The hittable colliders a walk of the tree does not reach: the stragglers (bodies that
+    /// left their leaf's box in the step), then the colliders outside the tree.
+    fn outside_tree<'a>(
+        &'a self,
+        tree: &'a BroadPhaseTree,
+    ) -> impl Iterator<Item = &'a QueryCollider> {
+        self.stragglers
+            .iter()
+            .filter_map(|&leaf| self.at_leaf(tree, leaf))
+            .chain(&self.loose)
+            .filter(|c| c.hittable)
     }
 
     /// Records every body of the step that just ended at its pose at the end of the step (see
