@@ -298,7 +298,7 @@ fn millimetre_die_dropped_on_another_default() {
 /// |---|---|---|
 /// | sequential impulses | upper die slides off, 107 mm (80 mm) | slides off, 2.4 mm (1.0 mm) |
 /// | soft step | slides off, 0.16 m (0.20 m) | tumbles from the first step (3.4 rad/s); the lower die sinks 0.54 mm at most, Box2D's sink for the pair's load (`soft_contact_holds_its_load_under_the_push_out_cap`), the upper tumbles off, both end side by side at `H - s`, 1.1 mm sideways (before that fix: the lower die sank its height into the ground, the upper on it, 0.33 mm; before contacts in the unit: slides off, 0.84 mm) |
-/// | propagation | heights right (within 0.4 um), but the pair rocks, 0.13 mm sideways at most, back on the stack at the end (before `dice_never_end_inside_each_other_propagation`'s fix: the upper die ended inside the lower, both centres at 0.5 mm) | the same (its resting contacts carry no friction, its impacts do: see `EVENT_FRICTION_ROUNDS` in `propagation.rs`) |
+/// | propagation | heights right (within 0.4 um), but the pair rocks, 0.13 mm sideways at most, back on the stack at the end (before `dice_never_end_inside_each_other_propagation`'s fix: the upper die ended inside the lower, both centres at 0.5 mm) | the same (its resting contacts carry no friction, its impacts do: see `EVENT_FRICTION_ROUNDS` in `propagation/event.rs`) |
 /// | Jacobi, three dice | sinks 1.2 mm in the first step and bounces, not at rest at 5 s | |
 ///
 /// Not a length left unscaled: a step's fall `g dt^2` is 2.7 mm, 2.7 dice, at 60 Hz, so a
