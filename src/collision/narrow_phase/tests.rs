@@ -1,7 +1,7 @@
 //! Unit tests of the narrow phase.
 
 use super::*;
-use parry3d::shape::{Ball, Cuboid, HalfSpace};
+use parry3d::shape::{Ball, Cuboid, HalfSpace, SharedShape};
 
 /// A ball of radius 0.5 whose centre is 0.49 m above a ground plane at y = 0 touches it
 /// with 0.01 m penetration at the point straight below, normal +y (from ground to ball).
