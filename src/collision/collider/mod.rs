@@ -32,10 +32,11 @@ pub struct ColliderDisabled;
 ///
 /// Constructors that cannot fail in their signature (`sphere`, `cuboid`, `capsule`, `cylinder`,
 /// `cone`, `round_cuboid`, `compound`, `trimesh`, `convex_decomposition`, `heightfield`,
-/// `half_space`, and with feature `mesh` the `..._from_mesh` ones) still accept bad input (empty, degenerate, non-finite or out of range, sizes
-/// above [`MAX_LENGTH`](crate::dynamics::validation::MAX_LENGTH)): such a collider carries the reason, and the body that uses it is
-/// quarantined with a logged error naming the entity instead of entering the solve. No
-/// constructor panics.
+/// `half_space`, and with feature `mesh` the `..._from_mesh` ones) still accept bad input (empty,
+/// degenerate, non-finite or out of range, sizes above
+/// [`MAX_LENGTH`](crate::dynamics::validation::MAX_LENGTH)): such a collider carries the reason,
+/// and the body that uses it is quarantined with a logged error naming the entity instead of
+/// entering the solve. No constructor panics.
 ///
 /// # Examples
 ///
