@@ -69,6 +69,8 @@ pub fn shape_segments(
     config: &PhysicsGizmos,
     out: &mut Vec<[Vec3; 2]>,
 ) {
+    // Long on purpose: one arm per kind of shape in the table above, each a few lines; split,
+    // the arms would be a dozen one-call functions.
     let n = config.circle_segments.max(4) & !1;
     let rot = pose.rotation;
     let (x, y, z) = (rot * Vec3::X, rot * Vec3::Y, rot * Vec3::Z);

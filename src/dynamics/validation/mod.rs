@@ -197,6 +197,8 @@ impl SolverConfig {
     /// # use bevy::prelude::default;
     /// ```
     pub fn validated(&self, last_good: &SolverConfig) -> (SolverConfig, Vec<String>) {
+        // Long on purpose: one entry per field of `SolverConfig`, each with its bounds: a table,
+        // not a sequence of steps.
         let mut e = Vec::new();
         let g = last_good;
         let count = |lo: u32, hi: u32| move |v: u32| (lo..=hi).contains(&v);

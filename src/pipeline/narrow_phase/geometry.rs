@@ -31,6 +31,9 @@ pub(super) fn pair_geometry(
     pair_index: usize,
     pair: &mut ContactPair,
 ) -> Geometry {
+    // Long on purpose: a pair's kinds (dormant, detected only, meeting at a time of impact,
+    // resting) end it early one after the other, sharing the poses, shapes and unit; a split
+    // would hand all of them on.
     let config = &state.settings.config;
     let (ia, ib) = candidates.indices[pair_index];
     pair.detect_only = candidates.detect_only[pair_index];

@@ -119,6 +119,9 @@ impl DenseSolve {
     /// each (the other two at `w = -1e-9 |q|`), an answer as right for the velocities but not
     /// for the impulses each contact reports, nor symmetric.
     pub(super) fn solve(&mut self) -> Option<&[f64]> {
+        // Long on purpose: one pivoting loop (a row enters, the rows whose impulse reaches zero
+        // leave, the factor is updated and the free set solved again), its steps sharing the
+        // factor and the free set: the textbook algorithm reads best whole.
         let n = self.rows.len();
         let tolerance = 1e-12 * self.q.iter().fold(f64::MIN_POSITIVE, |m, q| m.max(q.abs()));
         self.computed.clear();
