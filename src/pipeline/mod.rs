@@ -1,4 +1,4 @@
-//! The ECS side of a physics step, one file a stage, in the order [`crate::schedule`] chains
+//! The ECS side of a physics step, one module a stage, in the order [`crate::schedule`] chains
 //! them: [`prepare`], [`broad_phase`], [`narrow_phase`], [`solve`], [`write_back`](mod@write_back), [`sleep`],
 //! [`messages`]. Each stage is a thin gather and scatter around the plain functions of
 //! [`crate::collision`] and [`crate::dynamics`], and has its own plugin adding its system to its
