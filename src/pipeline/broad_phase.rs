@@ -43,9 +43,24 @@ pub fn update_broad_phase(
         tree.remove(entity);
     }
     let margin = TREE_MARGIN * state.settings.length_unit;
-    // An awake body (dynamic, or kinematic and moving) overlapping a sleeping one wakes its
-    // island now, so that the contact is solved with the sleeper's real mass; repeat until no
-    // more islands wake (a woken island may overlap another sleeping one).
+    wake_overlapped_islands(state, tree, margin);
+    tree.optimize();
+    revive_resting_pairs(state, &mut pairs);
+    carry_inactive_pairs(state, &mut pairs);
+    let state: &PhysicsState = state;
+    candidates.set(
+        state,
+        state
+            .index_pairs
+            .iter()
+            .map(|&(i, j)| (i as usize, j as usize)),
+    );
+}
+
+/// An awake body (dynamic, or kinematic and moving) overlapping a sleeping one wakes its
+/// island now, so that the contact is solved with the sleeper's real mass; repeat until no
+/// more islands wake (a woken island may overlap another sleeping one).
+fn wake_overlapped_islands(state: &mut PhysicsState, tree: &mut BroadPhaseTree, margin: f32) {
     loop {
         bring_in_overlapped(state);
         tree.sync(&state.entities, &state.aabbs, margin);
@@ -62,10 +77,13 @@ pub fn update_broad_phase(
         // The woken bodies are active now: search their pairs too.
         mark_awake_active(state);
     }
-    tree.optimize();
-    // Resting pairs set aside while their sleeping bodies sat out come back among the
-    // candidates when one of their bodies is in the step again, when the other body (static)
-    // changed, or when it is gone.
+}
+
+/// Resting pairs set aside while their sleeping bodies sat out come back among the
+/// candidates when one of their bodies is in the step again, when the other body (static)
+/// changed, or when it is gone. (`pairs` is the `ResMut`, so that it is marked changed only
+/// when some come back.)
+fn revive_resting_pairs(state: &PhysicsState, pairs: &mut ResMut<ContactPairs>) {
     if pairs.has_resting() {
         let mut back: Vec<Entity> = state.entered.clone();
         back.extend(state.departed.iter().copied());
@@ -83,10 +101,14 @@ pub fn update_broad_phase(
             pairs.revive(|p| back.binary_search(&p.a).is_ok() || back.binary_search(&p.b).is_ok());
         }
     }
-    // Pairs of two inactive bodies cannot have changed since the last step (neither moved):
-    // carry them over instead of searching every sleeping and static body each step. A pair of
-    // which a body sits out the step asleep, the other sitting out too or inactive, is set
-    // aside as it is.
+}
+
+/// Pairs of two inactive bodies cannot have changed since the last step (neither moved):
+/// carry them over instead of searching every sleeping and static body each step. A pair of
+/// which a body sits out the step asleep, the other sitting out too or inactive, is set
+/// aside as it is. (`pairs` is the `ResMut`, so that it is marked changed only when some are
+/// set aside.)
+fn carry_inactive_pairs(state: &mut PhysicsState, pairs: &mut ResMut<ContactPairs>) {
     if !pairs.candidates().is_empty()
         && (state.active.iter().any(|a| !a) || !state.sleepers.is_empty())
     {
@@ -131,12 +153,4 @@ pub fn update_broad_phase(
             pairs.set_aside(&aside);
         }
     }
-    let state: &PhysicsState = state;
-    candidates.set(
-        state,
-        state
-            .index_pairs
-            .iter()
-            .map(|&(i, j)| (i as usize, j as usize)),
-    );
 }

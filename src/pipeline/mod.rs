@@ -1,4 +1,4 @@
-//! The ECS side of a physics step, one file a stage, in the order [`crate::schedule`] chains
+//! The ECS side of a physics step, one module a stage, in the order [`crate::schedule`] chains
 //! them: [`prepare`], [`broad_phase`], [`narrow_phase`], [`solve`], [`write_back`](mod@write_back), [`sleep`],
 //! [`messages`]. Each stage is a thin gather and scatter around the plain functions of
 //! [`crate::collision`] and [`crate::dynamics`], and has its own plugin adding its system to its
@@ -22,6 +22,10 @@ pub mod sleep;
 pub mod solve;
 pub mod write_back;
 
+mod outputs;
+mod settings;
+mod wake;
+
 pub use broad_phase::{BroadPhasePlugin, update_broad_phase};
 pub use messages::{MessagesPlugin, send_messages};
 pub use narrow_phase::{NarrowPhasePlugin, update_narrow_phase};
@@ -30,7 +34,9 @@ pub use sleep::{SleepPlugin, update_sleep};
 pub use solve::{SolvePlugin, solve_contacts};
 pub use write_back::{WriteBackPlugin, write_back};
 
-use std::ops::Range;
+pub use outputs::{CandidatePairs, ContactRows, StepEvents};
+use settings::{Settings, validate_settings};
+use wake::{bring_in_overlapped, mark_awake_active, wake_islands};
 
 use bevy::prelude::*;
 use parry3d::math::Pose;
@@ -38,15 +44,12 @@ use parry3d::shape::SharedShape;
 
 use crate::collision::BroadPhaseTree;
 use crate::collision::layers::CollisionLayers;
-use crate::collision::narrow_phase::{TOUCH_DISTANCE, UnitShapes};
+use crate::collision::narrow_phase::UnitShapes;
 use crate::collision::sensor::Reporting;
+use crate::dynamics::CombineRules;
 use crate::dynamics::forces::BodyMotion;
-use crate::dynamics::sleep::{SleepConfig, SleepingSet};
-use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
-use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
-use crate::dynamics::{CombineRules, Gravity, SolverConfig};
-use crate::messages::Impact;
-use crate::schedule::PhysicsTime;
+use crate::dynamics::sleep::SleepingSet;
+use crate::dynamics::solver::{Motion, SolverBody};
 
 /// Initialises the resources the stages share, so that each stage plugin can run with any of
 /// the others replaced or left out.
@@ -248,352 +251,4 @@ pub enum PairKind {
     /// [`Sensor`](crate::collision::Sensor) is in the pair, or neither body is dynamic or
     /// asleep.
     DetectOnly,
-}
-
-/// The broad phase's output: the body pairs whose boxes overlap, for the narrow phase.
-#[derive(Resource, Default)]
-pub struct CandidatePairs {
-    /// The pairs as entities `(a, b)`, `a < b`, sorted.
-    pairs: Vec<(Entity, Entity)>,
-    /// Each pair's body indices in [`PhysicsState::entities`], in the order of `(a, b)`.
-    indices: Vec<(usize, usize)>,
-    /// Per pair: neither body is awake and dynamic (a sleeping body with a sleeping or static
-    /// one), so the pair keeps its manifolds and touching state without a narrow phase.
-    dormant: Vec<bool>,
-    /// Per pair: its contacts are only detected (touching state and collision messages), never
-    /// solved: a sensor is in it, or neither body is dynamic or asleep.
-    detect_only: Vec<bool>,
-}
-
-impl CandidatePairs {
-    /// The pairs as entities `(a, b)`, `a < b`, sorted.
-    pub fn pairs(&self) -> &[(Entity, Entity)] {
-        &self.pairs
-    }
-
-    /// Each pair's body indices in [`PhysicsState::entities`], in the order of its entities.
-    pub fn indices(&self) -> &[(usize, usize)] {
-        &self.indices
-    }
-
-    /// Per pair: neither body is awake and dynamic (for a detect-only pair: both are static
-    /// or asleep, and neither changed), so the pair keeps its manifolds and touching state
-    /// without a narrow phase.
-    pub fn dormant(&self) -> &[bool] {
-        &self.dormant
-    }
-
-    /// Per pair: its contacts are only detected, for touching state and collision messages,
-    /// never solved (no contact rows): a [`Sensor`](crate::collision::Sensor) is in it, or
-    /// neither body is dynamic or asleep (a pair found because a body asked for reports).
-    pub fn detect_only(&self) -> &[bool] {
-        &self.detect_only
-    }
-
-    /// Sets the candidates from overlapping body index pairs of `state` (each pair once, in
-    /// any order and either way round), and sorts them by entity. What a broad phase, the
-    /// built-in one or a replacement, ends with; the one place pairs are filtered:
-    ///
-    /// - neither body has a [`ColliderDisabled`](crate::collision::ColliderDisabled), and the
-    ///   bodies' [`CollisionLayers`] must interact
-    ///   ([`CollisionLayers::interacts_with`]);
-    /// - a pair with a dynamic or sleeping body is kept, solved unless a
-    ///   [`Sensor`](crate::collision::Sensor) is in it;
-    /// - a pair of non-dynamic bodies (kinematic with static or kinematic, or a static sensor
-    ///   with a static body) is kept, detect-only, when either body has a `Sensor`,
-    ///   [`CollisionEventsEnabled`](crate::collision::CollisionEventsEnabled) or
-    ///   [`CollidingEntities`](crate::collision::CollidingEntities); otherwise it is dropped,
-    ///   so it costs nothing past the broad phase.
-    pub fn set(
-        &mut self,
-        state: &PhysicsState,
-        overlapping: impl IntoIterator<Item = (usize, usize)>,
-    ) {
-        /// A kept pair: its entities, its body indices in their order, detect-only.
-        type Kept = ((Entity, Entity), (usize, usize), bool);
-        let mut keyed: Vec<Kept> = overlapping
-            .into_iter()
-            .filter_map(|(i, j)| {
-                let detect_only = state.pair_kind(i, j)? == PairKind::DetectOnly;
-                let (ei, ej) = (state.entities[i], state.entities[j]);
-                Some(if ei < ej {
-                    ((ei, ej), (i, j), detect_only)
-                } else {
-                    ((ej, ei), (j, i), detect_only)
-                })
-            })
-            .collect();
-        keyed.sort_unstable_by_key(|(k, _, _)| *k);
-        self.pairs.clear();
-        self.indices.clear();
-        self.dormant.clear();
-        self.detect_only.clear();
-        for (k, (i, j), detect_only) in keyed {
-            self.pairs.push(k);
-            self.indices.push((i, j));
-            let dormant = if detect_only {
-                // A detect-only pair may have a kinematic body (moving at its velocity) or a
-                // static one that changed: it is looked at unless nothing in it can move.
-                let still = |k: usize| state.bodies[k].motion == Motion::Static && !state.active[k];
-                still(i) && still(j)
-            } else {
-                let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
-                !awake(i) && !awake(j)
-            };
-            self.dormant.push(dormant);
-            self.detect_only.push(detect_only);
-        }
-    }
-}
-
-/// The narrow phase's output: one contact row per contact point of the candidate pairs, with
-/// the impulses the solve leaves in them.
-#[derive(Resource, Default)]
-pub struct ContactRows {
-    contacts: Vec<ContactConstraint>,
-    /// Contact index ranges of one body pair each.
-    pair_ranges: Vec<Range<usize>>,
-    /// For each contact: (pair, manifold, point) in [`ContactPairs`](crate::collision::ContactPairs).
-    keys: Vec<(u32, u32, u32)>,
-    /// The detect-only candidate pairs found touching in the step, as indices of
-    /// [`CandidatePairs::pairs`], ascending.
-    detected: Vec<u32>,
-}
-
-impl ContactRows {
-    /// The rows of the step: prepared by the narrow phase, with their impulses after the solve.
-    pub fn contacts(&self) -> &[ContactConstraint] {
-        &self.contacts
-    }
-
-    /// The rows of each body pair, as ranges of [`contacts`](Self::contacts).
-    pub fn pair_ranges(&self) -> &[Range<usize>] {
-        &self.pair_ranges
-    }
-
-    /// For each row: its (candidate pair, manifold, point) in
-    /// [`ContactPairs`](crate::collision::ContactPairs).
-    pub fn keys(&self) -> &[(u32, u32, u32)] {
-        &self.keys
-    }
-
-    /// The detect-only candidate pairs (see [`CandidatePairs::detect_only`]) whose contacts
-    /// touch in the step, as indices of [`CandidatePairs::pairs`], ascending: they have no
-    /// rows, so their touching state comes from here.
-    pub fn detected(&self) -> &[u32] {
-        &self.detected
-    }
-}
-
-/// What happened in the step, as the messages stage sends it.
-#[derive(Resource, Default)]
-pub struct StepEvents {
-    impacts: Vec<Impact>,
-    started: Vec<(Entity, Entity)>,
-    ended: Vec<(Entity, Entity)>,
-}
-
-impl StepEvents {
-    /// The contacts that count as impacts (see
-    /// [`SolverConfig::impact_messages`](crate::dynamics::SolverConfig::impact_messages)).
-    pub fn impacts(&self) -> &[Impact] {
-        &self.impacts
-    }
-
-    /// Pairs that started touching in the step.
-    pub fn started(&self) -> &[(Entity, Entity)] {
-        &self.started
-    }
-
-    /// Pairs that stopped touching in the step (or lost a body).
-    pub fn ended(&self) -> &[(Entity, Entity)] {
-        &self.ended
-    }
-}
-
-/// The validated settings of one step.
-#[derive(Clone, Debug)]
-struct Settings {
-    config: SolverConfig,
-    gravity: Gravity,
-    sleep: SleepConfig,
-    dt: f32,
-    length_unit: f32,
-    /// [`TOUCH_DISTANCE`] in the length unit, m.
-    touch_distance: f32,
-    /// [`PhysicsTime::relative_speed`](crate::schedule::PhysicsTime::relative_speed).
-    relative_speed: f32,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Settings {
-            config: SolverConfig::default(),
-            gravity: Gravity::default(),
-            sleep: SleepConfig::default(),
-            dt: DEFAULT_DT,
-            length_unit: 1.0,
-            touch_distance: TOUCH_DISTANCE,
-            relative_speed: 1.0,
-        }
-    }
-}
-
-/// Validates the settings resources and the step length (the schedule's delta times the
-/// physics clock's relative speed) against the last good values (see
-/// [`SolverConfig::validated`]), logging each invalid value once, as an error naming the
-/// field and the value, for as long as it stays.
-fn validate_settings(
-    state: &mut PhysicsState,
-    config: &SolverConfig,
-    gravity: &Gravity,
-    sleep: &SleepConfig,
-    unit: &PhysicsLengthUnit,
-    clock: &PhysicsTime,
-    delta: f32,
-) {
-    let last = &state.last_good;
-    let (relative_speed, speed_error) = clock.validated_speed(last.relative_speed);
-    // Speed 1 leaves the delta as it is, bit for bit (`x * 1.0 == x` in IEEE arithmetic).
-    let dt = delta * relative_speed;
-    let (config, mut errors) = config.validated(&last.config);
-    errors.extend(speed_error);
-    let (gravity, e) = gravity.validated(last.gravity);
-    errors.extend(e);
-    let (sleep, e) = sleep.validated(&last.sleep);
-    errors.extend(e);
-    let (dt, e) = validated_dt(dt, last.dt);
-    errors.extend(e);
-    let (unit, e) = unit.validated(last.length_unit);
-    errors.extend(e);
-    for error in &errors {
-        if !state.settings_reported.contains(error) {
-            log::error!("impact3d: invalid setting: {error}");
-        }
-    }
-    state.settings_reported = errors;
-    state.last_good = Settings {
-        config,
-        gravity,
-        sleep,
-        dt,
-        length_unit: unit,
-        touch_distance: TOUCH_DISTANCE,
-        relative_speed,
-    };
-    state.settings = state.last_good.scaled();
-}
-
-impl Settings {
-    /// These settings with every length (m) and speed (m/s) multiplied by the length unit.
-    fn scaled(&self) -> Settings {
-        let u = self.length_unit;
-        let mut s = self.clone();
-        let c = &mut s.config;
-        c.contact_margin *= u;
-        c.linear_slop *= u;
-        c.velocity_tolerance *= u;
-        c.restitution_threshold *= u;
-        c.max_push_out_speed *= u;
-        s.sleep.linear_threshold *= u;
-        s.touch_distance = TOUCH_DISTANCE * u;
-        s
-    }
-}
-
-// The sleeping set's wake fixpoint, shared by the prepare stage and the broad phase.
-
-/// Marks every body that is not static in the solve (a woken sleeper) as active.
-fn mark_awake_active(state: &mut PhysicsState) {
-    for (active, body) in state.active.iter_mut().zip(&state.bodies) {
-        *active |= body.motion != Motion::Static;
-    }
-}
-
-/// Swaps the bodies of the given islands back in as dynamic bodies (bringing in those that sat
-/// out the step) and records the islands as woken (their `Sleeping` markers are removed at the
-/// end of the step). Returns whether any body woke.
-fn wake_islands(state: &mut PhysicsState, islands: &[Entity]) -> bool {
-    if islands.is_empty() {
-        return false;
-    }
-    let mut sorted = islands.to_vec();
-    sorted.sort_unstable();
-    let members: Vec<u32> = (0..state.sleepers.len() as u32)
-        .filter(|&i| {
-            !state.sleepers.in_step(i, state.step)
-                && sorted
-                    .binary_search(&state.sleepers.record(i).island)
-                    .is_ok()
-        })
-        .collect();
-    for i in members {
-        bring_in(state, i);
-    }
-    let mut any = false;
-    for i in 0..state.bodies.len() {
-        if let Some((island, body)) = state.asleep[i]
-            && islands.contains(&island)
-        {
-            state.bodies[i] = body;
-            state.asleep[i] = None;
-            any = true;
-            if !state.woken.contains(&island) {
-                state.woken.push(island);
-            }
-        }
-    }
-    any
-}
-
-/// Puts sleeping body `i` of the [`SleepingSet`] into the step's arrays, as it was gathered:
-/// a static body that becomes its dynamic self if its island wakes.
-fn bring_in(state: &mut PhysicsState, i: u32) {
-    state.sleepers.mark_in_step(i, state.step);
-    let s = state.sleepers.record(i);
-    state.entities.push(s.entity);
-    state.bodies.push(SolverBody::new(
-        Motion::Static,
-        s.body.position,
-        s.body.rotation,
-    ));
-    state.local_com.push(s.local_com);
-    state.shapes.push(s.shape.clone());
-    state.poses.push(s.pose);
-    state.restitution.push(s.restitution);
-    state.friction.push(s.friction);
-    state.combine.push(s.combine);
-    state.layers.push(s.layers);
-    state.reporting.push(s.reporting);
-    state.reach.push(0.0);
-    state.spin_reach.push(0.0);
-    state.aabbs.push(state.sleepers.aabb(i));
-    state.active.push(false);
-    state.radius.push(s.radius);
-    state.collides.push(s.collides);
-    if let Some(motion) = s.motion {
-        let index = state.bodies.len() - 1;
-        state.motion.push((index, motion, s.body.position));
-    }
-    state.asleep.push(Some((s.island, s.body)));
-    state.entered.push(s.entity);
-}
-
-/// Brings in every sleeping body whose box an active body's box overlaps, so that the pair
-/// search finds their pairs as if every sleeping body were in the arrays.
-fn bring_in_overlapped(state: &mut PhysicsState) {
-    if state.sleepers.is_empty() {
-        return;
-    }
-    let mut found = Vec::new();
-    for i in 0..state.bodies.len() {
-        if state.active[i] {
-            state.sleepers.overlapping(&state.aabbs[i], &mut found);
-        }
-    }
-    for k in found {
-        if !state.sleepers.in_step(k, state.step) {
-            bring_in(state, k);
-        }
-    }
 }

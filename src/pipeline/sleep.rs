@@ -4,7 +4,7 @@ use bevy::prelude::*;
 
 use crate::collision::ContactPairs;
 use crate::dynamics::sleep::{
-    SleepTimer, Sleeping, SleepingDisabled, island_links, islands_to_sleep,
+    SleepConfig, SleepTimer, Sleeping, SleepingDisabled, island_links, islands_to_sleep,
 };
 use crate::dynamics::solver::Motion;
 use crate::dynamics::{AngularVelocity, LinearVelocity};
@@ -49,6 +49,47 @@ pub fn update_sleep(
         }
         return;
     }
+    wake_woken_islands(&mut commands, &state, &sleepers);
+    let timers = update_sleep_timers(&state, &mut bodies, config);
+    let links = island_links(
+        &state.bodies,
+        pairs
+            .candidates()
+            .iter()
+            .zip(candidates.indices())
+            .zip(candidates.detect_only())
+            // A sensor's touch holds nothing up: it does not join islands.
+            .filter(|((pair, _), detect_only)| pair.touching && !**detect_only)
+            .map(|((_, &pair), _)| pair),
+    );
+    for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep)
+        .into_iter()
+        .enumerate()
+    {
+        let Some(root) = island else { continue };
+        let entity = state.entities[i];
+        if let Ok((_, linear, angular, _)) = bodies.get_mut(entity) {
+            if let Some(mut v) = linear {
+                v.0 = Vec3::ZERO;
+            }
+            if let Some(mut w) = angular {
+                w.0 = Vec3::ZERO;
+            }
+        }
+        commands.entity(entity).insert(Sleeping {
+            island: state.entities[root as usize],
+        });
+    }
+}
+
+/// Wakes the islands woken in this step (by the prepare stage or the broad phase) and those of
+/// the sleeping bodies that lost a contact: every body of such an island loses its
+/// [`Sleeping`].
+fn wake_woken_islands(
+    commands: &mut Commands,
+    state: &PhysicsState,
+    sleepers: &Query<(Entity, &Sleeping)>,
+) {
     let island_of = |entity: Entity, marker: &Sleeping| {
         if marker.island == Entity::PLACEHOLDER {
             entity
@@ -81,6 +122,15 @@ pub fn update_sleep(
             }
         }
     }
+}
+
+/// Updates each awake dynamic body's [`SleepTimer`] (its slow time, s) and returns it by body
+/// (`None` for a body that is not dynamic, has no timer, or has `SleepingDisabled`).
+fn update_sleep_timers(
+    state: &PhysicsState,
+    bodies: &mut Query<SleepData>,
+    config: &SleepConfig,
+) -> Vec<Option<f32>> {
     let mut timers: Vec<Option<f32>> = vec![None; state.bodies.len()];
     for (i, (body, slot)) in state.bodies.iter().zip(timers.iter_mut()).enumerate() {
         if body.motion != Motion::Dynamic {
@@ -103,33 +153,5 @@ pub fn update_sleep(
         };
         *slot = Some(timer.0);
     }
-    let links = island_links(
-        &state.bodies,
-        pairs
-            .candidates()
-            .iter()
-            .zip(candidates.indices())
-            .zip(candidates.detect_only())
-            // A sensor's touch holds nothing up: it does not join islands.
-            .filter(|((pair, _), detect_only)| pair.touching && !**detect_only)
-            .map(|((_, &pair), _)| pair),
-    );
-    for (i, island) in islands_to_sleep(&timers, &links, config.time_to_sleep)
-        .into_iter()
-        .enumerate()
-    {
-        let Some(root) = island else { continue };
-        let entity = state.entities[i];
-        if let Ok((_, linear, angular, _)) = bodies.get_mut(entity) {
-            if let Some(mut v) = linear {
-                v.0 = Vec3::ZERO;
-            }
-            if let Some(mut w) = angular {
-                w.0 = Vec3::ZERO;
-            }
-        }
-        commands.entity(entity).insert(Sleeping {
-            island: state.entities[root as usize],
-        });
-    }
+    timers
 }

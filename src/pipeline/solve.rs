@@ -45,41 +45,66 @@ impl Plugin for SolvePlugin {
 /// let such a body through.
 fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs) {
     let dt = state.dt;
+    let first = first_impacts(state, candidates);
+    let poses: Vec<(usize, Pose)> = first
+        .iter()
+        .enumerate()
+        .filter(|&(_, &t)| t < dt)
+        .map(|(i, &t)| (i, solved_motion(state, i).0.pose_at(t)))
+        .collect();
+    put_back(state, poses);
+}
+
+/// The solved motion of each body as a rigid motion from its start pose: the centre of
+/// mass moves in a straight line to where the solve put it, and the body turns at its
+/// solved angular velocity (or along the shortest arc to its end rotation, for turns under
+/// a radian, which then reproduces the end pose exactly).
+///
+/// Returns it with the length of the body's sweep, m (its centre's path and its turn times its
+/// radius).
+fn solved_motion(state: &PhysicsState, i: usize) -> (StepMotion, f32) {
+    let dt = state.dt;
+    let body = &state.bodies[i];
+    let start = state.poses[i];
+    let com0 = start.transform_point(state.local_com[i]);
+    let linear = (body.position - com0) / dt;
+    let turn = (body.rotation * start.rotation.inverse()).to_scaled_axis();
+    let angular = if turn.length() < 1.0 && body.angular_velocity.length() * dt < 1.0 {
+        turn / dt
+    } else {
+        body.angular_velocity
+    };
+    let sweep = (body.position - com0).length() + angular.length() * dt * state.radius[i];
+    (
+        StepMotion {
+            pose: start,
+            local_center: state.local_com[i],
+            linear,
+            angular,
+            spin_reach: 0.0,
+        },
+        sweep,
+    )
+}
+
+/// Whether body `i` is an awake dynamic body whose solved motion sweeps farther than the
+/// contact margin.
+fn sweeps_fast(state: &PhysicsState, i: usize) -> bool {
     let margin = state.settings.config.contact_margin;
+    state.bodies[i].motion == Motion::Dynamic
+        && state.asleep[i].is_none()
+        && solved_motion(state, i).1 > margin
+}
+
+/// The time, s into the step, at which each fast body first touches one of its pairs more than
+/// `linear_slop` before the end of its sweep (`dt` where it does not); empty when no pair has a
+/// fast body.
+fn first_impacts(state: &PhysicsState, candidates: &CandidatePairs) -> Vec<f32> {
+    let dt = state.dt;
     let slop = state.settings.config.linear_slop;
     let n = state.bodies.len();
-    // The solved motion of each body as a rigid motion from its start pose: the centre of
-    // mass moves in a straight line to where the solve put it, and the body turns at its
-    // solved angular velocity (or along the shortest arc to its end rotation, for turns under
-    // a radian, which then reproduces the end pose exactly).
-    let motion = |i: usize| {
-        let body = &state.bodies[i];
-        let start = state.poses[i];
-        let com0 = start.transform_point(state.local_com[i]);
-        let linear = (body.position - com0) / dt;
-        let turn = (body.rotation * start.rotation.inverse()).to_scaled_axis();
-        let angular = if turn.length() < 1.0 && body.angular_velocity.length() * dt < 1.0 {
-            turn / dt
-        } else {
-            body.angular_velocity
-        };
-        let sweep = (body.position - com0).length() + angular.length() * dt * state.radius[i];
-        (
-            StepMotion {
-                pose: start,
-                local_center: state.local_com[i],
-                linear,
-                angular,
-                spin_reach: 0.0,
-            },
-            sweep,
-        )
-    };
-    let fast = |i: usize| {
-        state.bodies[i].motion == Motion::Dynamic
-            && state.asleep[i].is_none()
-            && motion(i).1 > margin
-    };
+    let motion = |i: usize| solved_motion(state, i);
+    let fast = |i: usize| sweeps_fast(state, i);
     let mut first: Vec<f32> = Vec::new();
     for (k, &(ia, ib)) in candidates.indices.iter().enumerate() {
         // A detect-only pair (a sensor) never stops a body: it has no contact to resolve.
@@ -91,56 +116,71 @@ fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs) {
         }
         let (ma, sweep_a) = motion(ia);
         let (mb, sweep_b) = motion(ib);
-        let (sa, sb) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
-        let hit = |a: &StepMotion, sa: &dyn Shape, b: &StepMotion, sb: &dyn Shape| {
-            let (a, b) = (a.nonlinear(), b.nonlinear());
-            cast_shapes_nonlinear(&a, sa, &b, sb, 0.0, dt, false)
-                .ok()
-                .flatten()
-                .map(|h| h.time_of_impact)
+        let Some(t) = first_touch(state, ia, ib, &ma, &mb) else {
+            continue;
         };
-        // A pair of a dynamic body and a turning kinematic body (see `Turning`) is solved with
-        // the kinematic body's prescribed motion (its faces' contacts carried to its end-of-step
-        // pose, its other anchors turned exactly), not with the start geometry this rewind makes
-        // up for. Their straight solved paths can still graze mid-step (a ball pushed by a
-        // kinematic bar turning at 6 rad/s, its path a chord of the face's arc, dips about 1 mm
-        // into it), which a sweep of the whole shapes takes for a first impact: the ball was put
-        // back where it started while the bar moved on, and the bar sank 9.9 cm into it under
-        // the soft step. Such a pair is swept by the fast body's centre, as a pair touching at
-        // the start.
-        let carried = Turning::sides(state, ia, ib).is_some();
-        let t = match hit(&ma, sa, &mb, sb) {
-            Some(t) if t > 0.0 && !carried => Some(t),
-            Some(_) => {
-                // Touching at the start, or carried: sweep the fast body's centre (a point)
-                // instead.
-                let point = Ball::new(0.0);
-                let centre = |m: &StepMotion| StepMotion {
-                    pose: Pose::from_parts(m.pose.transform_point(m.local_center), m.pose.rotation),
-                    local_center: Vec3::ZERO,
-                    ..*m
-                };
-                if fast(ia) {
-                    hit(&centre(&ma), &point, &mb, sb).filter(|&t| t > 0.0)
-                } else {
-                    hit(&ma, sa, &centre(&mb), &point).filter(|&t| t > 0.0)
-                }
-            }
-            None => None,
-        };
-        let Some(t) = t else { continue };
         for (i, sweep) in [(ia, sweep_a), (ib, sweep_b)] {
             if fast(i) && (1.0 - t / dt) * sweep > slop {
                 first[i] = first[i].min(t);
             }
         }
     }
-    let poses: Vec<(usize, Pose)> = first
-        .iter()
-        .enumerate()
-        .filter(|&(_, &t)| t < dt)
-        .map(|(i, &t)| (i, motion(i).0.pose_at(t)))
-        .collect();
+    first
+}
+
+/// When bodies `ia` and `ib`, moving as `ma` and `mb`, first touch within the step, s: their
+/// shapes swept against each other, or the fast body's centre when they touch at the start or
+/// the pair is carried by a turning kinematic body.
+fn first_touch(
+    state: &PhysicsState,
+    ia: usize,
+    ib: usize,
+    ma: &StepMotion,
+    mb: &StepMotion,
+) -> Option<f32> {
+    let dt = state.dt;
+    let (sa, sb) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
+    let hit = |a: &StepMotion, sa: &dyn Shape, b: &StepMotion, sb: &dyn Shape| {
+        let (a, b) = (a.nonlinear(), b.nonlinear());
+        cast_shapes_nonlinear(&a, sa, &b, sb, 0.0, dt, false)
+            .ok()
+            .flatten()
+            .map(|h| h.time_of_impact)
+    };
+    // A pair of a dynamic body and a turning kinematic body (see `Turning`) is solved with
+    // the kinematic body's prescribed motion (its faces' contacts carried to its end-of-step
+    // pose, its other anchors turned exactly), not with the start geometry this rewind makes
+    // up for. Their straight solved paths can still graze mid-step (a ball pushed by a
+    // kinematic bar turning at 6 rad/s, its path a chord of the face's arc, dips about 1 mm
+    // into it), which a sweep of the whole shapes takes for a first impact: the ball was put
+    // back where it started while the bar moved on, and the bar sank 9.9 cm into it under
+    // the soft step. Such a pair is swept by the fast body's centre, as a pair touching at
+    // the start.
+    let carried = Turning::sides(state, ia, ib).is_some();
+    match hit(ma, sa, mb, sb) {
+        Some(t) if t > 0.0 && !carried => Some(t),
+        Some(_) => {
+            // Touching at the start, or carried: sweep the fast body's centre (a point)
+            // instead.
+            let point = Ball::new(0.0);
+            let centre = |m: &StepMotion| StepMotion {
+                pose: Pose::from_parts(m.pose.transform_point(m.local_center), m.pose.rotation),
+                local_center: Vec3::ZERO,
+                ..*m
+            };
+            if sweeps_fast(state, ia) {
+                hit(&centre(ma), &point, mb, sb).filter(|&t| t > 0.0)
+            } else {
+                hit(ma, sa, &centre(mb), &point).filter(|&t| t > 0.0)
+            }
+        }
+        None => None,
+    }
+}
+
+/// Puts each body of `poses` back at its pose, keeping its energy from rising (see
+/// [`stop_at_first_impact`]).
+fn put_back(state: &mut PhysicsState, poses: Vec<(usize, Pose)>) {
     let gravity = state.settings.gravity.0;
     for (i, pose) in poses {
         let body = &mut state.bodies[i];

@@ -25,6 +25,9 @@ pub(super) fn rigid_substeps(
     dt: f32,
     stats: &mut SolverStats,
 ) {
+    // Long on purpose: the substep loop reads as the stage list of one substep (integrate, take
+    // the arrivals, record the bounces, warm start, iterate, push out, integrate, total), as
+    // Box2D's step does; each stage is a call or a few lines sharing the substep's buffers.
     let n = config.substeps.max(1);
     let h = dt / n as f32;
     let rows = RigidRows {

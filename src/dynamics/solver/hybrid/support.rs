@@ -61,6 +61,8 @@ pub(super) fn support_holds(
     blocks: &mut [Block],
     touch: f32,
 ) {
+    // Long on purpose: the three rules of the doc above, applied in order over one shared buffer
+    // of support entries per body; split, each part would take that buffer and its index arrays.
     let touching = |c: &ContactConstraint| c.separation <= touch && c.normal_mass > 0.0;
     // The support entries of each body, in one buffer: body `i` has at most `room[i]` of them,
     // at `start[i]..start[i] + count[i]`.

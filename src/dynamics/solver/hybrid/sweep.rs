@@ -200,6 +200,9 @@ pub(super) fn solve_block(
     solve: &ManifoldSolve,
     rows: &mut Vec<BlockRow>,
 ) -> (bool, f32, bool) {
+    // Long on purpose: one block solve read top to bottom (each row's bias, the soft plane's
+    // coupling, then the passes over the rows), its steps sharing a dozen locals (the support's
+    // response, the soft sums); split, they would travel together as a struct of their own.
     // The support responds along its free direction, its rotation scaled by `1 - hold`.
     let response = block.response(group[0].normal);
     let (fa, fb) = (response.a.angular, response.b.angular);

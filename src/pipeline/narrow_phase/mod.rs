@@ -1,0 +1,355 @@
+//! The narrow phase: parry3d's persistent contact manifolds per candidate pair, and one
+//! contact row per point, warm-started from the impulse that point carried from the last step.
+
+use std::ops::Range;
+
+use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, ParallelSliceMut, TaskPool};
+use parry3d::shape::SharedShape;
+
+use crate::collision::ContactPairs;
+use crate::collision::narrow_phase::{
+    ContactImpulse, ContactPair, StepMotion, UnitShapes, binary_unit,
+};
+use crate::dynamics::CoefficientCombine;
+use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
+use crate::schedule::{PhysicsSchedule, PhysicsSystems};
+
+use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents, init_stage_state};
+
+mod geometry;
+mod normals;
+mod turning;
+
+use geometry::{Geometry, pair_geometry};
+pub use normals::{FACE_NORMAL_ANGLE, lighter_face_normal};
+pub(super) use turning::Turning;
+
+/// Adds [`update_narrow_phase`] to [`PhysicsSystems::NarrowPhase`].
+pub struct NarrowPhasePlugin;
+
+impl Plugin for NarrowPhasePlugin {
+    fn build(&self, app: &mut App) {
+        init_stage_state(app).add_systems(
+            PhysicsSchedule,
+            update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
+        );
+    }
+}
+
+/// Updates the persistent contact pairs and builds one contact constraint per contact point,
+/// carrying each point's impulses from the last step.
+pub fn update_narrow_phase(
+    mut state: ResMut<PhysicsState>,
+    mut pairs: ResMut<ContactPairs>,
+    candidates: Res<CandidatePairs>,
+    mut rows: ResMut<ContactRows>,
+    mut events: ResMut<StepEvents>,
+) {
+    let state = &mut *state;
+    let rows = &mut *rows;
+    events.ended.clear();
+    events.started.clear();
+    state.lost.clear();
+    drop_ended_pairs(state, &mut pairs, &candidates, &mut events);
+    rows.contacts.clear();
+    rows.pair_ranges.clear();
+    rows.keys.clear();
+    rows.detected.clear();
+    let pressed = pressed_bodies(state, &candidates);
+    // Contacts are generated with the shapes scaled to the length unit (see
+    // `ContactPair::update`); a pair with a shape parry cannot scale keeps metres.
+    let unit = binary_unit(state.settings.length_unit);
+    let mut unit_shapes = std::mem::take(&mut state.unit_shapes);
+    let scaled = unit_scaled_shapes(state, &candidates, &mut unit_shapes, unit);
+    let geometry = all_pair_geometry(state, &candidates, &scaled, unit, &mut pairs);
+    for (pair_index, ((pair, &(ia, ib)), geometry)) in pairs
+        .pairs_mut()
+        .iter_mut()
+        .zip(&candidates.indices)
+        .zip(geometry)
+        .enumerate()
+    {
+        pair_rows(state, rows, &pressed, pair, pair_index, (ia, ib), geometry);
+    }
+    unit_shapes.prune();
+    state.unit_shapes = unit_shapes;
+}
+
+/// Drops the pairs that are no longer candidates: each that was touching has ended, and unless
+/// it only detected (a sensor's touch held nothing up) its bodies have lost a support.
+fn drop_ended_pairs(
+    state: &mut PhysicsState,
+    pairs: &mut ContactPairs,
+    candidates: &CandidatePairs,
+    events: &mut StepEvents,
+) {
+    let (ended, lost) = (&mut events.ended, &mut state.lost);
+    pairs.retain_candidates(&candidates.pairs, |p| {
+        if p.touching {
+            ended.push((p.a, p.b));
+            // A sensor's touch held nothing up: losing it wakes no one.
+            if !p.detect_only {
+                lost.extend([p.a, p.b]);
+            }
+        }
+    });
+}
+
+/// The bodies a heavier dynamic body may press (see [`lighter_face_normal`]).
+fn pressed_bodies(state: &PhysicsState, candidates: &CandidatePairs) -> Vec<bool> {
+    let mut pressed = vec![false; state.bodies.len()];
+    for (&(i, j), &detect_only) in candidates.indices.iter().zip(&candidates.detect_only) {
+        let (a, b) = (&state.bodies[i], &state.bodies[j]);
+        if !detect_only
+            && a.motion == Motion::Dynamic
+            && b.motion == Motion::Dynamic
+            && a.inverse_mass != b.inverse_mass
+        {
+            pressed[if a.inverse_mass > b.inverse_mass {
+                i
+            } else {
+                j
+            }] = true;
+        }
+    }
+    pressed
+}
+
+/// Each candidate pair's shapes scaled to the length unit `unit` (none at all when it is 1);
+/// `None` for a pair with a shape parry cannot scale.
+fn unit_scaled_shapes(
+    state: &PhysicsState,
+    candidates: &CandidatePairs,
+    unit_shapes: &mut UnitShapes,
+    unit: f32,
+) -> Vec<Option<(SharedShape, SharedShape)>> {
+    if unit == 1.0 {
+        Vec::new()
+    } else {
+        candidates
+            .indices
+            .iter()
+            .map(|&(ia, ib)| {
+                unit_shapes
+                    .get(&state.shapes[ia], unit)
+                    .zip(unit_shapes.get(&state.shapes[ib], unit))
+            })
+            .collect()
+    }
+}
+
+/// The manifolds of every pair, independently of the others: in parallel on Bevy's compute
+/// task pool, in chunks whose results come back in pair order, so the step is the same on
+/// any number of threads.
+fn all_pair_geometry(
+    state: &PhysicsState,
+    candidates: &CandidatePairs,
+    scaled: &[Option<(SharedShape, SharedShape)>],
+    unit: f32,
+    pairs: &mut ContactPairs,
+) -> Vec<Geometry> {
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    let per_task = pairs_per_task(pairs.pairs_mut().len(), pool.thread_num());
+    pairs
+        .pairs_mut()
+        .par_chunk_map_mut(pool, per_task, |chunk, pairs| {
+            pairs
+                .iter_mut()
+                .enumerate()
+                .map(|(k, pair)| {
+                    let pair_index = chunk * per_task + k;
+                    pair_geometry(
+                        state,
+                        candidates,
+                        scaled.get(pair_index).and_then(Option::as_ref),
+                        unit,
+                        pair_index,
+                        pair,
+                    )
+                })
+                .collect::<Vec<_>>()
+        })
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// The contact rows of candidate pair `pair_index` (bodies `ia` and `ib`) from what the
+/// manifold pass found for it: none for a pair without contact or one only detected (recorded
+/// in `rows.detected` when touching); else a row per contact point, at the start poses or, for
+/// a fast-turning body, from the time-of-impact poses ([`impact_rows`]).
+fn pair_rows(
+    state: &PhysicsState,
+    rows: &mut ContactRows,
+    pressed: &[bool],
+    pair: &ContactPair,
+    pair_index: usize,
+    (ia, ib): (usize, usize),
+    geometry: Geometry,
+) {
+    let impact_time = match geometry {
+        Geometry::None => return,
+        Geometry::Detected(touching) => {
+            if touching {
+                rows.detected.push(pair_index as u32);
+            }
+            return;
+        }
+        Geometry::Impact(t, motion_a, motion_b) => Some((t, motion_a, motion_b)),
+        Geometry::Start => None,
+    };
+    let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
+    // Each coefficient by the pair's rule (`Max` unless a body asks for another).
+    let (rules_a, rules_b) = (state.combine[ia], state.combine[ib]);
+    let restitution = CoefficientCombine::of_pair(rules_a.restitution, rules_b.restitution)
+        .mix(state.restitution[ia], state.restitution[ib]);
+    let friction = CoefficientCombine::of_pair(rules_a.friction, rules_b.friction)
+        .mix(state.friction[ia], state.friction[ib]);
+    let turning = Turning::of(state, ia, ib);
+    let start = rows.contacts.len();
+    if let Some(impact) = impact_time {
+        impact_rows(
+            state,
+            rows,
+            pair,
+            pair_index,
+            (ia, ib),
+            impact,
+            (restitution, friction),
+            turning.as_ref(),
+        );
+        close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
+        return;
+    }
+    let mut face = None;
+    for (m, k, point, normal, dist) in pair.world_points(pose_a, pose_b) {
+        let normal = match face {
+            Some((manifold, n)) if manifold == m => n,
+            _ => {
+                let n = lighter_face_normal(state, pressed, ia, ib, normal);
+                face = Some((m, n));
+                n
+            }
+        };
+        let mut c = ContactConstraint::new(ia, ib, point, normal, dist, restitution, friction);
+        if let Some(turning) = &turning {
+            let face = turning.face(pair.surface_points(m, k, pose_a, pose_b), |p| p);
+            turning.carry(&mut c, &turning.motion.pose, face, &state.bodies, state.dt);
+        }
+        let carried = pair.manifolds[m].points[k].data;
+        push_row(
+            &mut rows.contacts,
+            &mut rows.keys,
+            c,
+            carried,
+            (pair_index, m, k),
+        );
+    }
+    close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
+}
+
+/// The rows of pair `pair_index` (bodies `ia` and `ib`) whose bodies meet `t` s into the step,
+/// for [`pair_rows`].
+#[allow(clippy::too_many_arguments)]
+fn impact_rows(
+    state: &PhysicsState,
+    rows: &mut ContactRows,
+    pair: &ContactPair,
+    pair_index: usize,
+    (ia, ib): (usize, usize),
+    (t, motion_a, motion_b): (f32, StepMotion, StepMotion),
+    (restitution, friction): (f32, f32),
+    turning: Option<&Turning>,
+) {
+    // A spinning body: the contact of its first point to meet the other is generated
+    // at the time-of-impact poses (the start pose's normal and points would miss the
+    // rotation), with its points mapped back to where they are at the start and a
+    // separation that the approach velocity there closes exactly at the impact time.
+    let (toi_a, toi_b) = (motion_a.pose_at(t), motion_b.pose_at(t));
+    let (a, b) = (&state.bodies[ia], &state.bodies[ib]);
+    // The point is moved back with the body that turns farther, so that its lever arm
+    // is the one at impact (`p - x(t)`): the impulse then turns it as the impact does.
+    let carrier = if state.spin_reach[ia] >= state.spin_reach[ib] {
+        &motion_a
+    } else {
+        &motion_b
+    };
+    let shift = carrier.linear * t;
+    for (m, k, impact_point, normal, dist) in pair.world_points(&toi_a, &toi_b) {
+        let point = impact_point - shift;
+        let point_velocity = |body: &SolverBody| {
+            body.linear_velocity + body.angular_velocity.cross(point - body.position)
+        };
+        let approach = (point_velocity(b) - point_velocity(a)).dot(normal);
+        if approach >= 0.0 {
+            continue;
+        }
+        let separation = dist.max(0.0) - approach * t;
+        let mut c =
+            ContactConstraint::new(ia, ib, point, normal, separation, restitution, friction);
+        if let Some(turning) = turning {
+            let (toi_k, other) = if turning.sign > 0.0 {
+                (&toi_a, &motion_b)
+            } else {
+                (&toi_b, &motion_a)
+            };
+            let face = turning.face(pair.surface_points(m, k, &toi_a, &toi_b), |p| {
+                p - other.linear * t
+            });
+            turning.carry(&mut c, toi_k, face, &state.bodies, state.dt);
+        }
+        let carried = pair.manifolds[m].points[k].data;
+        push_row(
+            &mut rows.contacts,
+            &mut rows.keys,
+            c,
+            carried,
+            (pair_index, m, k),
+        );
+    }
+}
+
+/// Fewest candidate pairs per task of the narrow phase's parallel manifold pass.
+const MIN_PAIRS_PER_TASK: usize = 64;
+
+/// Tasks per thread of the compute pool the manifold pass is split into (a few, so that a
+/// thread that finishes early takes another).
+const TASKS_PER_THREAD: usize = 4;
+
+/// Candidate pairs per task for `pairs` pairs on a pool of `threads` threads: the pairs split
+/// into `TASKS_PER_THREAD` tasks per thread, but none smaller than [`MIN_PAIRS_PER_TASK`].
+/// Each pair's result depends on that pair alone and comes back in pair order, so the split
+/// changes nothing but the time.
+///
+/// Why bounded by the threads: Bevy's task pool without `multi_threaded` (this crate without
+/// feature `parallel`) queues a scope's tasks in a fixed-capacity executor; with a task per 64
+/// pairs, the pairs of a 1,000-sphere pour overflowed it, panicking inside the narrow phase
+/// (the lab's test `one_thread_build_steps_thousands_of_pairs`).
+fn pairs_per_task(pairs: usize, threads: usize) -> usize {
+    pairs
+        .div_ceil(threads.max(1) * TASKS_PER_THREAD)
+        .max(MIN_PAIRS_PER_TASK)
+}
+
+/// Adds the contact row of point `k` of manifold `m` of candidate pair `pair` (the `key`),
+/// starting from the impulses that point carried from the last step (warm starting).
+fn push_row(
+    contacts: &mut Vec<ContactConstraint>,
+    keys: &mut Vec<(u32, u32, u32)>,
+    mut row: ContactConstraint,
+    carried: ContactImpulse,
+    (pair, m, k): (usize, usize, usize),
+) {
+    row.normal_impulse = carried.normal;
+    row.tangent_impulse = carried.tangent;
+    contacts.push(row);
+    keys.push((pair as u32, m as u32, k as u32));
+}
+
+/// Records the rows pushed since `start` as one body pair's range, if there are any.
+fn close_pair_range(contacts: &[ContactConstraint], ranges: &mut Vec<Range<usize>>, start: usize) {
+    if contacts.len() > start {
+        ranges.push(start..contacts.len());
+    }
+}

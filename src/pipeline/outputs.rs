@@ -1,0 +1,171 @@
+//! What the broad and narrow phases and the solve hand on: the candidate pairs, the contact
+//! rows and the step's events, each a resource readable from outside the crate.
+
+use std::ops::Range;
+
+use bevy::prelude::*;
+
+use super::{PairKind, PhysicsState};
+use crate::dynamics::solver::{ContactConstraint, Motion};
+use crate::messages::Impact;
+
+/// The broad phase's output: the body pairs whose boxes overlap, for the narrow phase.
+#[derive(Resource, Default)]
+pub struct CandidatePairs {
+    /// The pairs as entities `(a, b)`, `a < b`, sorted.
+    pub(super) pairs: Vec<(Entity, Entity)>,
+    /// Each pair's body indices in [`PhysicsState::entities`], in the order of `(a, b)`.
+    pub(super) indices: Vec<(usize, usize)>,
+    /// Per pair: neither body is awake and dynamic (a sleeping body with a sleeping or static
+    /// one), so the pair keeps its manifolds and touching state without a narrow phase.
+    pub(super) dormant: Vec<bool>,
+    /// Per pair: its contacts are only detected (touching state and collision messages), never
+    /// solved: a sensor is in it, or neither body is dynamic or asleep.
+    pub(super) detect_only: Vec<bool>,
+}
+
+impl CandidatePairs {
+    /// The pairs as entities `(a, b)`, `a < b`, sorted.
+    pub fn pairs(&self) -> &[(Entity, Entity)] {
+        &self.pairs
+    }
+
+    /// Each pair's body indices in [`PhysicsState::entities`], in the order of its entities.
+    pub fn indices(&self) -> &[(usize, usize)] {
+        &self.indices
+    }
+
+    /// Per pair: neither body is awake and dynamic (for a detect-only pair: both are static
+    /// or asleep, and neither changed), so the pair keeps its manifolds and touching state
+    /// without a narrow phase.
+    pub fn dormant(&self) -> &[bool] {
+        &self.dormant
+    }
+
+    /// Per pair: its contacts are only detected, for touching state and collision messages,
+    /// never solved (no contact rows): a [`Sensor`](crate::collision::Sensor) is in it, or
+    /// neither body is dynamic or asleep (a pair found because a body asked for reports).
+    pub fn detect_only(&self) -> &[bool] {
+        &self.detect_only
+    }
+
+    /// Sets the candidates from overlapping body index pairs of `state` (each pair once, in
+    /// any order and either way round), and sorts them by entity. What a broad phase, the
+    /// built-in one or a replacement, ends with; the one place pairs are filtered:
+    ///
+    /// - neither body has a [`ColliderDisabled`](crate::collision::ColliderDisabled), and the
+    ///   bodies' [`CollisionLayers`](crate::collision::CollisionLayers) must interact
+    ///   ([`CollisionLayers::interacts_with`](crate::collision::CollisionLayers::interacts_with));
+    /// - a pair with a dynamic or sleeping body is kept, solved unless a
+    ///   [`Sensor`](crate::collision::Sensor) is in it;
+    /// - a pair of non-dynamic bodies (kinematic with static or kinematic, or a static sensor
+    ///   with a static body) is kept, detect-only, when either body has a `Sensor`,
+    ///   [`CollisionEventsEnabled`](crate::collision::CollisionEventsEnabled) or
+    ///   [`CollidingEntities`](crate::collision::CollidingEntities); otherwise it is dropped,
+    ///   so it costs nothing past the broad phase.
+    pub fn set(
+        &mut self,
+        state: &PhysicsState,
+        overlapping: impl IntoIterator<Item = (usize, usize)>,
+    ) {
+        /// A kept pair: its entities, its body indices in their order, detect-only.
+        type Kept = ((Entity, Entity), (usize, usize), bool);
+        let mut keyed: Vec<Kept> = overlapping
+            .into_iter()
+            .filter_map(|(i, j)| {
+                let detect_only = state.pair_kind(i, j)? == PairKind::DetectOnly;
+                let (ei, ej) = (state.entities[i], state.entities[j]);
+                Some(if ei < ej {
+                    ((ei, ej), (i, j), detect_only)
+                } else {
+                    ((ej, ei), (j, i), detect_only)
+                })
+            })
+            .collect();
+        keyed.sort_unstable_by_key(|(k, _, _)| *k);
+        self.pairs.clear();
+        self.indices.clear();
+        self.dormant.clear();
+        self.detect_only.clear();
+        for (k, (i, j), detect_only) in keyed {
+            self.pairs.push(k);
+            self.indices.push((i, j));
+            let dormant = if detect_only {
+                // A detect-only pair may have a kinematic body (moving at its velocity) or a
+                // static one that changed: it is looked at unless nothing in it can move.
+                let still = |k: usize| state.bodies[k].motion == Motion::Static && !state.active[k];
+                still(i) && still(j)
+            } else {
+                let awake = |k: usize| state.bodies[k].motion == Motion::Dynamic;
+                !awake(i) && !awake(j)
+            };
+            self.dormant.push(dormant);
+            self.detect_only.push(detect_only);
+        }
+    }
+}
+
+/// The narrow phase's output: one contact row per contact point of the candidate pairs, with
+/// the impulses the solve leaves in them.
+#[derive(Resource, Default)]
+pub struct ContactRows {
+    pub(super) contacts: Vec<ContactConstraint>,
+    /// Contact index ranges of one body pair each.
+    pub(super) pair_ranges: Vec<Range<usize>>,
+    /// For each contact: (pair, manifold, point) in [`ContactPairs`](crate::collision::ContactPairs).
+    pub(super) keys: Vec<(u32, u32, u32)>,
+    /// The detect-only candidate pairs found touching in the step, as indices of
+    /// [`CandidatePairs::pairs`], ascending.
+    pub(super) detected: Vec<u32>,
+}
+
+impl ContactRows {
+    /// The rows of the step: prepared by the narrow phase, with their impulses after the solve.
+    pub fn contacts(&self) -> &[ContactConstraint] {
+        &self.contacts
+    }
+
+    /// The rows of each body pair, as ranges of [`contacts`](Self::contacts).
+    pub fn pair_ranges(&self) -> &[Range<usize>] {
+        &self.pair_ranges
+    }
+
+    /// For each row: its (candidate pair, manifold, point) in
+    /// [`ContactPairs`](crate::collision::ContactPairs).
+    pub fn keys(&self) -> &[(u32, u32, u32)] {
+        &self.keys
+    }
+
+    /// The detect-only candidate pairs (see [`CandidatePairs::detect_only`]) whose contacts
+    /// touch in the step, as indices of [`CandidatePairs::pairs`], ascending: they have no
+    /// rows, so their touching state comes from here.
+    pub fn detected(&self) -> &[u32] {
+        &self.detected
+    }
+}
+
+/// What happened in the step, as the messages stage sends it.
+#[derive(Resource, Default)]
+pub struct StepEvents {
+    pub(super) impacts: Vec<Impact>,
+    pub(super) started: Vec<(Entity, Entity)>,
+    pub(super) ended: Vec<(Entity, Entity)>,
+}
+
+impl StepEvents {
+    /// The contacts that count as impacts (see
+    /// [`SolverConfig::impact_messages`](crate::dynamics::SolverConfig::impact_messages)).
+    pub fn impacts(&self) -> &[Impact] {
+        &self.impacts
+    }
+
+    /// Pairs that started touching in the step.
+    pub fn started(&self) -> &[(Entity, Entity)] {
+        &self.started
+    }
+
+    /// Pairs that stopped touching in the step (or lost a body).
+    pub fn ended(&self) -> &[(Entity, Entity)] {
+        &self.ended
+    }
+}

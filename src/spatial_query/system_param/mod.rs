@@ -1,0 +1,207 @@
+//! The [`SpatialQuery`] system parameter: rays, shape casts, point projection and intersection
+//! tests against the colliders of the last physics step.
+
+use std::cell::{Cell, RefCell};
+
+use bevy::ecs::system::SystemParam;
+use bevy::prelude::*;
+use parry3d::bounding_volume::Aabb;
+
+use super::SpatialQueryFilter;
+use super::colliders::{QueryCollider, SpatialQueryColliders};
+use super::{PointProjection, RayHitData, ShapeHitData};
+use crate::collision::{BroadPhaseTree, Collider, ColliderDisabled};
+use crate::dynamics::{Quarantined, RigidBodyDisabled};
+
+mod checks;
+mod intersections;
+mod points;
+mod rays;
+mod shapes;
+
+pub(crate) use checks::{
+    check_distance, check_point, check_rotation, ray_input, shape_pose, unit_direction,
+};
+
+/// Ray casts, shape casts, point projection and intersection tests against the colliders of
+/// the last physics step (avian3d 0.7's system parameter: the same methods, arguments and
+/// results, in metres, with `Vec3` and `Quat`).
+///
+/// # What a query sees
+///
+/// Each body's collider as the last physics step left it: the shape the step collided with
+/// (compound shapes, half-spaces, triangle meshes and heightfields included; whatever
+/// [`PhysicsLengthUnit`](crate::dynamics::PhysicsLengthUnit), which changes nothing here), at
+/// the pose the step wrote to the body's `Transform`, with the body's
+/// [`CollisionLayers`](crate::collision::CollisionLayers) of that step. The colliders are
+/// recorded at the end of each step ([`PhysicsSystems::SpatialQuery`]) and found through the
+/// broad phase's [`BroadPhaseTree`], so a query from `Update`, from `PhysicsSystems::Last` or
+/// from any system between two steps sees the same world, consistent with the tree: a body
+/// spawned, moved, or given a new collider or new layers since is seen as it is after the next
+/// step (the step reads it then); a body interpolated for drawing
+/// ([`TransformInterpolation`](crate::interpolation::TransformInterpolation)) is hit at its
+/// physics pose, not where it is drawn. A body despawned since, or given
+/// [`ColliderDisabled`], [`RigidBodyDisabled`] or [`Quarantined`] since, or whose collider was
+/// removed, is not hit at once. Disabled and quarantined colliders are never hit; sensors are,
+/// like any collider (leave their layers out of the filter's mask to skip them). (With a
+/// replacement broad phase the tree stays empty: every body of the last step is then tested
+/// directly, and a sleeping body that sat that step out is not found.)
+///
+/// # Order and determinism
+///
+/// A query's answer does not depend on the tree's shape: where several hits are returned they
+/// are sorted by distance, then by entity (intersection tests by entity); the closest hit is the
+/// one of least distance, of least entity among equals; callbacks are called in that order. Each
+/// collider is tested exactly with parry ([`RayCast`](parry3d::query::RayCast),
+/// [`parry3d::query::cast_shapes`], [`PointQuery`](parry3d::query::PointQuery),
+/// [`parry3d::query::intersection_test`]) with the query's own arguments, so the answer is the
+/// one a loop over every collider would give, bit for bit.
+///
+/// # Bad input
+///
+/// A non-finite origin, point or position, a direction that is zero or not finite (a direction
+/// not of unit length is normalised), a negative or NaN distance, a rotation that is not a
+/// finite non-zero quaternion (it is normalised), or a cast shape whose collider carries an
+/// error, gives no hit: `None` or an empty list, and no callback. An infinite maximum distance
+/// means no limit. Nothing panics. ([`RayCaster`](super::RayCaster) and
+/// [`ShapeCaster`](super::ShapeCaster) log such input once per caster.)
+///
+/// [`PhysicsSystems::SpatialQuery`]: crate::schedule::PhysicsSystems::SpatialQuery
+///
+/// # Examples
+///
+/// ```
+/// use bevy::prelude::*;
+/// use impact3d::prelude::*;
+///
+/// /// The ground below `point`, if any within 10 m, and how far.
+/// fn ground_below(query: &SpatialQuery, point: Vec3) -> Option<(Entity, f32)> {
+///     query
+///         .cast_ray(point, Dir3::NEG_Y, 10.0, true, &SpatialQueryFilter::default())
+///         .map(|hit| (hit.entity, hit.distance))
+/// }
+///
+/// let mut app = impact3d::scenes::headless_app(60.0);
+/// let ground = app
+///     .world_mut()
+///     .spawn((RigidBody::Static, Collider::half_space(Vec3::Y)))
+///     .id();
+/// impact3d::scenes::run_steps(&mut app, 1);
+/// let found = app
+///     .world_mut()
+///     .run_system_cached(|query: SpatialQuery| ground_below(&query, Vec3::new(1.0, 2.5, 0.0)))
+///     .unwrap();
+/// assert_eq!(found, Some((ground, 2.5)));
+/// ```
+#[derive(SystemParam)]
+pub struct SpatialQuery<'w, 's> {
+    tree: Res<'w, BroadPhaseTree>,
+    colliders: Res<'w, SpatialQueryColliders>,
+    /// The bodies that still have a collider, enabled and not quarantined.
+    live: Query<'w, 's, (), Live>,
+}
+
+/// A body that still has a collider, enabled and not quarantined.
+type Live = (
+    With<Collider>,
+    Without<ColliderDisabled>,
+    Without<RigidBodyDisabled>,
+    Without<Quarantined>,
+);
+
+impl SpatialQuery<'_, '_> {
+    /// Whether `c` passes `filter` and is still a live collider.
+    fn accepts(&self, c: &QueryCollider, filter: &SpatialQueryFilter) -> bool {
+        filter.test(c.entity, c.layers) && self.live.contains(c.entity)
+    }
+
+    /// The nearest hit (of least entity among equally near ones) of a cast, or the nearest
+    /// projection of a point, on the colliders `filter` and `predicate` admit: `hit` tests one
+    /// collider, `entry(aabb, bound)` gives a lower bound (m) on the distance of anything in a
+    /// box (where the cast enters it, the point's distance to it), if it is within `bound`,
+    /// which shrinks to the nearest hit so far (see
+    /// [`SpatialQueryColliders::nearest_candidates`]).
+    fn nearest_hit<H: Hit>(
+        &self,
+        filter: &SpatialQueryFilter,
+        predicate: &dyn Fn(Entity) -> bool,
+        max: f32,
+        entry: impl Fn(&Aabb, f32) -> Option<f32>,
+        hit: impl Fn(&QueryCollider) -> Option<H>,
+    ) -> Option<H> {
+        let bound = Cell::new(max);
+        let best: RefCell<Option<H>> = RefCell::new(None);
+        self.colliders
+            .nearest_candidates(&self.tree, &bound, entry, |c| {
+                if !self.accepts(c, filter) || !predicate(c.entity) {
+                    return;
+                }
+                if let Some(h) = hit(c) {
+                    let mut best = best.borrow_mut();
+                    if best.as_ref().is_none_or(|b| {
+                        let ((d, e), (bd, be)) = (h.order(), b.order());
+                        closer(d, e, bd, be)
+                    }) {
+                        bound.set(h.order().0);
+                        *best = Some(h);
+                    }
+                }
+            });
+        best.into_inner()
+    }
+
+    /// Every hit of a cast on the colliders `filter` admits, sorted by distance then entity:
+    /// `hit` tests one collider, `reaches` whether the cast enters a box.
+    fn sorted_hits<H: Hit>(
+        &self,
+        filter: &SpatialQueryFilter,
+        reaches: impl Fn(&Aabb) -> bool,
+        hit: impl Fn(&QueryCollider) -> Option<H>,
+    ) -> Vec<H> {
+        let mut hits = Vec::new();
+        self.colliders.candidates(&self.tree, reaches, |c| {
+            if self.accepts(c, filter)
+                && let Some(h) = hit(c)
+            {
+                hits.push(h);
+            }
+        });
+        hits.sort_by(|a, b| {
+            let ((da, ea), (db, eb)) = (a.order(), b.order());
+            da.total_cmp(&db).then(ea.cmp(&eb))
+        });
+        hits
+    }
+}
+
+/// A cast's hit, ordered by distance (m) then entity.
+trait Hit {
+    fn order(&self) -> (f32, Entity);
+}
+
+impl Hit for RayHitData {
+    fn order(&self) -> (f32, Entity) {
+        (self.distance, self.entity)
+    }
+}
+
+impl Hit for ShapeHitData {
+    fn order(&self) -> (f32, Entity) {
+        (self.distance, self.entity)
+    }
+}
+
+/// A point's projection on a collider and its distance from the point (m), ordered as a hit.
+struct Projected(f32, PointProjection);
+
+impl Hit for Projected {
+    fn order(&self) -> (f32, Entity) {
+        (self.0, self.1.entity)
+    }
+}
+
+/// Whether a hit at `distance` on `entity` comes before one at `best` on `best_entity`: nearer,
+/// or as near and of a smaller entity.
+fn closer(distance: f32, entity: Entity, best: f32, best_entity: Entity) -> bool {
+    distance < best || (distance == best && entity < best_entity)
+}
