@@ -56,7 +56,7 @@ pub(super) enum Resting<'a> {
     /// [`manifold_sweep`]), and the last relax pass leaving fast speculative contacts to the next
     /// step's impact phase.
     Manifolds(&'a [Block]),
-    /// Nothing can take an impulse (see [`resting_phase_idle`]): only gravity and integration.
+    /// Nothing can take an impulse (see [`resting_phase_idle`](super::hybrid::resting_phase_idle)): only gravity and integration.
     Idle,
 }
 

@@ -34,7 +34,7 @@ use super::*;
 /// static or kinematic body (which take momentum anyway). In an island that touches none, every
 /// body has the same level and every manifold is solved two-body, conserving momentum exactly.
 ///
-/// Without a consistent partition of `contacts` into `manifolds` (a caller of [`step`] may pass
+/// Without a consistent partition of `contacts` into `manifolds` (a caller of [`step`](crate::dynamics::solver::step) may pass
 /// none), each contact is its own block.
 pub(super) fn shock_order(
     bodies: &[SolverBody],

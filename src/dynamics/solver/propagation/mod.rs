@@ -22,6 +22,7 @@ use timing::*;
 pub(super) use timing::{relative_gravity, time_of_impact};
 
 mod event;
+mod friction;
 mod timing;
 
 /// What a propagation pass did.

@@ -262,7 +262,7 @@ pub(super) fn threshold(c: &ContactConstraint, params: &Propagation, chain: bool
 
 /// The group's time of impact (see [`group_time`]) if it approaches: one of its contacts is
 /// [`approaching`] at the start of the step, and still approaches as fast at that time, with
-/// its anchors where [`resolve_event`] solves it ([`at_time`]).
+/// its anchors where [`resolve_event`](super::event::resolve_event) solves it ([`at_time`]).
 ///
 /// Why both: the queue and the event must agree. Taken at the start of the step only, a
 /// contact of a body spinning fast (a 0.5 m capsule at 16 rad/s after earlier impacts of the
@@ -378,7 +378,7 @@ pub(super) fn pass_gravity(
 }
 
 /// When the group's impact happens within the step: its earliest closing point's time of
-/// impact, not before either body's latest impact (see [`propagate`]).
+/// impact, not before either body's latest impact (see [`propagate`](super::propagate)).
 pub(super) fn group_time(
     bodies: &[SolverBody],
     contacts: &[ContactConstraint],
