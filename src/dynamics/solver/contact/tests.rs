@@ -15,6 +15,21 @@ fn as_impulse(b: &SolverBody) -> ImpulseBody {
     }
 }
 
+/// A seeded xorshift stream of numbers uniform in [0, 1).
+fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// A vector with each component uniform in [-scale, scale).
+fn random_vec(scale: f32, unit: &mut dyn FnMut() -> f32) -> Vec3 {
+    Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * 2.0 * scale
+}
+
 /// The prepared effective mass is the reciprocal of the impulse formula's denominator K.
 #[test]
 fn prepared_mass_matches_impulse_formula() {
@@ -57,21 +72,12 @@ fn prepared_mass_matches_impulse_formula() {
 /// 1e4 (an inverse inertia of 100 times an impulse of 100).
 #[test]
 fn rows_run_the_seed_formula() {
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let mut unit = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let vec = |scale: f32, unit: &mut dyn FnMut() -> f32| {
-        Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * 2.0 * scale
-    };
+    let mut unit = uniform(0x2545_f491_4f6c_dd1d);
     let mut checked = 0;
     for trial in 0..200 {
         let mut make = |fixed: bool| {
-            let position = vec(1.0, &mut unit);
-            let rotation = Quat::from_scaled_axis(vec(3.0, &mut unit));
+            let position = random_vec(1.0, &mut unit);
+            let rotation = Quat::from_scaled_axis(random_vec(3.0, &mut unit));
             let body = SolverBody::new(
                 if fixed {
                     Motion::Static
@@ -92,11 +98,11 @@ fn rows_run_the_seed_formula() {
                 false,
                 BVec3::FALSE,
             )
-            .with_velocity(vec(5.0, &mut unit), vec(5.0, &mut unit))
+            .with_velocity(random_vec(5.0, &mut unit), random_vec(5.0, &mut unit))
         };
         let mut bodies = [make(trial % 4 == 0), make(false)];
-        let point = vec(1.0, &mut unit);
-        let normal = vec(1.0, &mut unit).normalize_or(Vec3::Y);
+        let point = random_vec(1.0, &mut unit);
+        let normal = random_vec(1.0, &mut unit).normalize_or(Vec3::Y);
         let e = unit();
         let (mut a, mut b) = (as_impulse(&bodies[0]), as_impulse(&bodies[1]));
         if crate::impulse::normal_velocity(&a, &b, point, normal) >= 0.0 {
@@ -274,20 +280,11 @@ fn stick_impulse_rolls_a_sliding_ball() {
 /// entries spread over 1e4).
 #[test]
 fn stick_impulse_takes_energy_out_within_the_disk() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut unit = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let vec = |scale: f32, unit: &mut dyn FnMut() -> f32| {
-        Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * 2.0 * scale
-    };
+    let mut unit = uniform(0x9e37_79b9_7f4a_7c15);
     for trial in 0..200 {
         let mut make = |fixed: bool| {
-            let position = vec(1.0, &mut unit);
-            let rotation = Quat::from_scaled_axis(vec(3.0, &mut unit));
+            let position = random_vec(1.0, &mut unit);
+            let rotation = Quat::from_scaled_axis(random_vec(3.0, &mut unit));
             if fixed {
                 return SolverBody::new(Motion::Static, position, rotation);
             }
@@ -299,13 +296,13 @@ fn stick_impulse_takes_energy_out_within_the_disk() {
                 false,
                 BVec3::FALSE,
             );
-            body.linear_velocity = vec(5.0, &mut unit);
-            body.angular_velocity = vec(5.0, &mut unit);
+            body.linear_velocity = random_vec(5.0, &mut unit);
+            body.angular_velocity = random_vec(5.0, &mut unit);
             body
         };
         let bodies = [make(trial % 4 == 0), make(false)];
-        let point = vec(1.0, &mut unit);
-        let normal = vec(1.0, &mut unit).normalize();
+        let point = random_vec(1.0, &mut unit);
+        let normal = random_vec(1.0, &mut unit).normalize();
         let mut contacts = [ContactConstraint::new(0, 1, point, normal, 0.0, 0.0, 0.5)];
         prepare_contacts(&bodies, &mut contacts);
         let c = &contacts[0];
