@@ -127,6 +127,7 @@ pub(super) fn resolve_event(
     event: &[usize],
     met: &[bool],
     joined: &[bool],
+    inelastic: bool,
     toi: f32,
     params: &Propagation,
     scratch: &mut EventScratch,
@@ -228,13 +229,20 @@ pub(super) fn resolve_event(
 
     // The block's impulses (see `solve_block`); then, where rows have friction, rounds of
     // friction and normal holds (see `EVENT_FRICTION_ROUNDS`).
-    for round_count in 1..=EVENT_FRICTION_ROUNDS {
+    // Under the hybrid method only an inelastic event takes friction: the others are solved
+    // in one round (see `EVENT_FRICTION_ROUNDS`).
+    let rounds = if inelastic || !params.join_touching {
+        EVENT_FRICTION_ROUNDS
+    } else {
+        1
+    };
+    for round_count in 1..=rounds {
         solve_block(rows, state, targets, round, bodies, dense, params);
         for (entry, &j) in state.iter_mut().zip(round.iter()) {
             entry.2 += j;
         }
         // The last round ends with the normal block: friction never leaves a row approaching.
-        if round_count == EVENT_FRICTION_ROUNDS {
+        if round_count == rounds {
             break;
         }
         if !apply_friction(rows, round, state, pairs, contacts, bodies, params)

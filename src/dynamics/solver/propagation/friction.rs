@@ -62,10 +62,6 @@ pub(super) fn apply_friction(
     params: &Propagation,
 ) -> bool {
     pairs.clear();
-    // Under the hybrid method, only an inelastic event (see [`EVENT_FRICTION_ROUNDS`]).
-    if params.join_touching && rows.iter().any(|row| row.restitution != 0.0) {
-        return false;
-    }
     pairs.extend(
         rows.iter()
             .zip(round.iter())
@@ -81,10 +77,9 @@ pub(super) fn apply_friction(
     let mut slipping = false;
     for pair in pairs.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
         let pair = pair.iter().map(|&(_, _, i)| (&rows[i], round[i]));
-        if let Some((centre, load)) = manifold_centre(pair, bodies) {
-            centre.apply_stick_impulse(bodies, centre.friction * load);
-            slipping = true;
-        }
+        let (centre, load) = manifold_centre(pair, bodies);
+        centre.apply_stick_impulse(bodies, centre.friction * load);
+        slipping = true;
     }
     slipping
 }
@@ -116,8 +111,8 @@ pub(super) fn retarget(
 /// The friction row of one body pair's rows in an event (with the round's normal impulses):
 /// the row that pushed hardest, moved to the centre of the normal impulses (their
 /// impulse-weighted mean anchor on each body), with its tangent rows prepared there, and the
-/// round's total normal impulse, its Coulomb load; `None` if the pair has no friction or did
-/// not push.
+/// round's total normal impulse, its Coulomb load. The rows all pushed (`j > 0`) and have
+/// friction, and there is at least one ([`apply_friction`] passes only those).
 ///
 /// Why the centre and not each point: a manifold's normal impulses are not unique (four
 /// corners on a face hold a body with any of many splits; the exact solve returns one at a
@@ -129,13 +124,13 @@ pub(super) fn retarget(
 pub(super) fn manifold_centre<'a>(
     pair: impl Iterator<Item = (&'a ContactConstraint, f32)> + Clone,
     bodies: &[SolverBody],
-) -> Option<(ContactConstraint, f32)> {
-    let (hardest, most) = pair.clone().max_by(|x, y| x.1.total_cmp(&y.1))?;
-    if most.is_nan() || most <= 0.0 || hardest.friction.is_nan() || hardest.friction <= 0.0 {
-        return None;
-    }
+) -> (ContactConstraint, f32) {
+    let (hardest, _) = pair
+        .clone()
+        .max_by(|x, y| x.1.total_cmp(&y.1))
+        .expect("a pair's rows in the event");
     let (mut load, mut anchor_a, mut anchor_b) = (0.0, Vec3::ZERO, Vec3::ZERO);
-    for (row, j) in pair.filter(|&(_, j)| j > 0.0) {
+    for (row, j) in pair {
         load += j;
         anchor_a += j * row.anchor_a;
         anchor_b += j * row.anchor_b;
@@ -144,5 +139,5 @@ pub(super) fn manifold_centre<'a>(
     centre.anchor_a = anchor_a / load;
     centre.anchor_b = anchor_b / load;
     centre.prepare_tangent_rows(&bodies[centre.body_a], &bodies[centre.body_b]);
-    Some((centre, load))
+    (centre, load)
 }

@@ -316,6 +316,7 @@ pub fn propagate(
                 &event,
                 &met,
                 &joined,
+                inelastic,
                 event_time,
                 params,
                 &mut scratch,
