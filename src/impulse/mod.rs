@@ -139,7 +139,8 @@ pub fn inverse_effective_mass(a: &ImpulseBody, b: &ImpulseBody, point: Vec3, nor
 /// two terms scaled. [`inverse_effective_mass`] is this with the terms of two
 /// [`ImpulseBody`]s. (The exact solve of an inelastic event, `solver/lcp.rs`, builds the
 /// whole Delassus matrix in f64, whose diagonal is this `K` and whose other entries couple
-/// two rows: the one place the formula is generalised rather than called.)
+/// two rows: the one place the formula is generalised rather than called. The friction stick
+/// impulse's 2 x 2 tangent matrix calls it for each entry, the linear part on the diagonal.)
 ///
 /// # Examples
 ///

@@ -49,14 +49,21 @@ impl ContactConstraint {
     /// bound on a single application.) The tangent rows must be prepared.
     pub fn apply_stick_impulse(&self, bodies: &mut [SolverBody], limit: f32) -> [f32; 2] {
         let (a, b) = (&bodies[self.body_a], &bodies[self.body_b]);
-        let linear = a.inverse_mass + b.inverse_mass;
         let (ra, rb) = (self.anchor_a, self.anchor_b);
+        // `K_t`'s entries are the seed formula's denominator for the tangents `t_i`, `t_l`
+        // ([`row_inverse_mass`]; the linear part only on the diagonal, `t_i . t_l = 0` off it).
         let k = |i: usize, l: usize| {
             let t = self.tangents[i];
-            let diagonal = if i == l { linear } else { 0.0 };
-            diagonal
-                + ra.cross(t).dot(self.tangent_ang[0][l])
-                + rb.cross(t).dot(self.tangent_ang[1][l])
+            let linear = if i == l {
+                [a.inverse_mass, b.inverse_mass]
+            } else {
+                [0.0; 2]
+            };
+            let angular = [
+                ra.cross(t).dot(self.tangent_ang[0][l]),
+                rb.cross(t).dot(self.tangent_ang[1][l]),
+            ];
+            row_inverse_mass(linear, angular)
         };
         let (k00, k01, k11) = (k(0, 0), 0.5 * (k(0, 1) + k(1, 0)), k(1, 1));
         let v = [
