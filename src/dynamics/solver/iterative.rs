@@ -88,6 +88,39 @@ impl Settling {
         }
     }
 
+    /// One row-by-row sweep over `contacts`: for each row with an effective mass, `row` gives
+    /// its normal velocity and its new accumulated normal impulse (already clamped), or `None`
+    /// to leave it, from the row, its index, the latest velocities and the ledger; the change is
+    /// then accepted (see [`accept`](Self::accept)).
+    #[inline]
+    pub(super) fn sweep_rows(
+        &mut self,
+        bodies: &mut [SolverBody],
+        contacts: &mut [ContactConstraint],
+        mut row: impl FnMut(
+            &ContactConstraint,
+            usize,
+            &[SolverBody],
+            &RestitutionLedger,
+        ) -> Option<(f32, f32)>,
+    ) -> Sweep {
+        self.begin(bodies.len());
+        let mut largest = 0.0f32;
+        for (i, c) in contacts.iter_mut().enumerate() {
+            if c.normal_mass == 0.0 {
+                continue;
+            }
+            let Some((vn, new)) = row(c, i, bodies, &self.ledger) else {
+                continue;
+            };
+            self.accept(c, i, vn, new, bodies, &mut largest);
+        }
+        Sweep {
+            largest,
+            settled: self.rows_settled(contacts),
+        }
+    }
+
     /// No row (or block) `index` touching bodies `a` and `b` was disturbed after it was solved.
     #[inline]
     pub(super) fn undisturbed(&self, a: usize, b: usize, index: usize) -> bool {

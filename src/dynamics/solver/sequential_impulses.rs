@@ -280,22 +280,15 @@ pub fn sequential_sweep(
     arrivals: &[Arrival],
     settling: &mut Settling,
 ) -> Sweep {
-    settling.begin(bodies.len());
-    let mut largest = 0.0f32;
-    for (i, c) in contacts.iter_mut().enumerate() {
-        if c.normal_mass == 0.0 {
-            continue;
-        }
+    settling.sweep_rows(bodies, contacts, |c, i, bodies, ledger| {
         let vn = c.normal_velocity(bodies);
-        let bounce = settling.ledger.limited_bounce(c, arrivals[i].bounce, vn);
+        let bounce = ledger.limited_bounce(c, arrivals[i].bounce, vn);
         let target = rows.target(c, bodies, bounce);
-        let new = (c.normal_impulse + row_impulse(c.normal_mass, vn, target)).max(0.0);
-        settling.accept(c, i, vn, new, bodies, &mut largest);
-    }
-    Sweep {
-        largest,
-        settled: settling.rows_settled(contacts),
-    }
+        Some((
+            vn,
+            (c.normal_impulse + row_impulse(c.normal_mass, vn, target)).max(0.0),
+        ))
+    })
 }
 
 #[cfg(test)]

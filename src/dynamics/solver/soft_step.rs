@@ -276,15 +276,10 @@ pub fn soft_sweep(
     leave_impacts: Option<f32>,
     settling: &mut Settling,
 ) -> Sweep {
-    settling.begin(bodies.len());
-    let mut largest = 0.0f32;
-    for (i, c) in contacts.iter_mut().enumerate() {
-        if c.normal_mass == 0.0 {
-            continue;
-        }
+    settling.sweep_rows(bodies, contacts, |c, _, bodies, _| {
         let s = c.current_separation(bodies);
         if leave_impacts.is_some_and(|t| s > 0.0 && c.normal_velocity(bodies) < -t) {
-            continue;
+            return None;
         }
         let vn = c.normal_velocity(bodies);
         let impulse = if s > 0.0 {
@@ -294,13 +289,8 @@ pub fn soft_sweep(
         } else {
             -c.normal_mass * vn
         };
-        let new = (c.normal_impulse + impulse).max(0.0);
-        settling.accept(c, i, vn, new, bodies, &mut largest);
-    }
-    Sweep {
-        largest,
-        settled: settling.rows_settled(contacts),
-    }
+        Some((vn, (c.normal_impulse + impulse).max(0.0)))
+    })
 }
 
 /// Box2D v3's restitution pass, after the substeps: a contact that approached faster than

@@ -8,9 +8,7 @@ use bevy::tasks::{ComputeTaskPool, ParallelSliceMut, TaskPool};
 use parry3d::shape::SharedShape;
 
 use crate::collision::ContactPairs;
-use crate::collision::narrow_phase::{
-    ContactImpulse, ContactPair, StepMotion, UnitShapes, binary_unit,
-};
+use crate::collision::narrow_phase::{ContactPair, StepMotion, UnitShapes, binary_unit};
 use crate::dynamics::CoefficientCombine;
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
@@ -237,14 +235,7 @@ fn pair_rows(
             let face = turning.face(pair.surface_points(m, k, pose_a, pose_b), |p| p);
             turning.carry(&mut c, &turning.motion.pose, face, &state.bodies, state.dt);
         }
-        let carried = pair.manifolds[m].points[k].data;
-        push_row(
-            &mut rows.contacts,
-            &mut rows.keys,
-            c,
-            carried,
-            (pair_index, m, k),
-        );
+        push_row(rows, pair, c, (pair_index, m, k));
     }
     close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
 }
@@ -299,14 +290,7 @@ fn impact_rows(
             });
             turning.carry(&mut c, toi_k, face, &state.bodies, state.dt);
         }
-        let carried = pair.manifolds[m].points[k].data;
-        push_row(
-            &mut rows.contacts,
-            &mut rows.keys,
-            c,
-            carried,
-            (pair_index, m, k),
-        );
+        push_row(rows, pair, c, (pair_index, m, k));
     }
 }
 
@@ -332,19 +316,20 @@ fn pairs_per_task(pairs: usize, threads: usize) -> usize {
         .max(MIN_PAIRS_PER_TASK)
 }
 
-/// Adds the contact row of point `k` of manifold `m` of candidate pair `pair` (the `key`),
-/// starting from the impulses that point carried from the last step (warm starting).
+/// Adds the contact row of point `k` of manifold `m` of `pair`, candidate pair `pair_index`
+/// (the row's key), starting from the impulses that point carried from the last step (warm
+/// starting).
 fn push_row(
-    contacts: &mut Vec<ContactConstraint>,
-    keys: &mut Vec<(u32, u32, u32)>,
+    rows: &mut ContactRows,
+    pair: &ContactPair,
     mut row: ContactConstraint,
-    carried: ContactImpulse,
-    (pair, m, k): (usize, usize, usize),
+    (pair_index, m, k): (usize, usize, usize),
 ) {
+    let carried = pair.manifolds[m].points[k].data;
     row.normal_impulse = carried.normal;
     row.tangent_impulse = carried.tangent;
-    contacts.push(row);
-    keys.push((pair as u32, m as u32, k as u32));
+    rows.contacts.push(row);
+    rows.keys.push((pair_index as u32, m as u32, k as u32));
 }
 
 /// Records the rows pushed since `start` as one body pair's range, if there are any.

@@ -1,12 +1,12 @@
 //! [`RayCaster`]: a ray cast every physics step from its entity, its hits kept in
 //! [`RayHits`].
 
-use bevy::ecs::entity::EntityHashMap;
 use bevy::prelude::*;
+use parry3d::query::Ray;
 
-use super::super::system_param::ray_input;
+use super::super::system_param::{ray_input, sort_hits};
 use super::super::{RayHitData, SpatialQuery, SpatialQueryFilter};
-use super::{ReportedErrors, caster_frame, caster_label};
+use super::{Caster, CasterData, ReportedErrors, caster_filter, update_casters};
 
 /// Casts a ray every physics step from its entity and keeps the hits in [`RayHits`] (avian3d
 /// 0.7's component: the same fields and defaults).
@@ -182,82 +182,64 @@ impl RayHits {
     /// avian3d's API).
     pub fn iter_sorted(&self) -> std::vec::IntoIter<RayHitData> {
         let mut hits = self.0.clone();
-        hits.sort_by(|a, b| {
-            a.distance
-                .total_cmp(&b.distance)
-                .then(a.entity.cmp(&b.entity))
-        });
+        sort_hits(&mut hits);
         hits.into_iter()
     }
 }
 
 /// The components [`update_ray_casters`] reads and writes.
-type RayCasterData = (
-    Entity,
-    &'static mut RayCaster,
-    &'static mut RayHits,
-    Option<&'static Transform>,
-    Option<&'static Name>,
-);
+type RayCasterData = CasterData<RayCaster, RayHits>;
+
+impl Caster for RayCaster {
+    type Hit = RayHitData;
+    type Input = (Ray, f32);
+    const WHAT: &'static str = "ray caster";
+
+    fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    fn input(&self, translation: Vec3, rotation: Quat) -> Result<(Ray, f32), String> {
+        let origin = translation + rotation * self.origin;
+        let direction = rotation * self.direction.as_vec3();
+        ray_input(origin, direction, self.max_distance)
+    }
+
+    fn cast(
+        &mut self,
+        (ray, max): (Ray, f32),
+        entity: Entity,
+        query: &SpatialQuery,
+    ) -> Vec<RayHitData> {
+        // `ray_input` gave a unit direction: the `Dir3` is valid.
+        let direction = Dir3::new_unchecked(ray.dir);
+        self.global_origin = ray.origin;
+        self.global_direction = direction;
+        let filter = caster_filter(&self.query_filter, self.ignore_self, entity);
+        if self.max_hits == 1 {
+            query
+                .cast_ray(ray.origin, direction, max, self.solid, &filter)
+                .into_iter()
+                .collect()
+        } else {
+            query.ray_hits(
+                ray.origin,
+                direction,
+                max,
+                self.max_hits,
+                self.solid,
+                &filter,
+            )
+        }
+    }
+}
 
 /// Casts every enabled [`RayCaster`] from its entity's pose and stores its hits in its
 /// [`RayHits`] (cleared for a disabled caster or bad input, which is logged once per caster).
 pub fn update_ray_casters(
-    mut casters: Query<RayCasterData>,
+    casters: Query<RayCasterData>,
     query: SpatialQuery,
-    mut reported: Local<ReportedErrors>,
+    reported: Local<ReportedErrors>,
 ) {
-    let mut next = EntityHashMap::default();
-    for (entity, mut caster, mut hits, transform, name) in &mut casters {
-        if !caster.enabled {
-            if !hits.is_empty() {
-                hits.clear();
-            }
-            continue;
-        }
-        let cast = caster_frame(transform).and_then(|(translation, rotation)| {
-            let origin = translation + rotation * caster.origin;
-            let direction = rotation * caster.direction.as_vec3();
-            let (ray, max) = ray_input(origin, direction, caster.max_distance)?;
-            Ok((ray, max))
-        });
-        let found = match cast {
-            Ok((ray, max)) => {
-                // `ray_input` gave a unit direction: the `Dir3` is valid.
-                let direction = Dir3::new_unchecked(ray.dir);
-                let caster = caster.bypass_change_detection();
-                caster.global_origin = ray.origin;
-                caster.global_direction = direction;
-                let mut filter = caster.query_filter.clone();
-                if caster.ignore_self {
-                    filter.excluded_entities.insert(entity);
-                }
-                if caster.max_hits == 1 {
-                    query
-                        .cast_ray(ray.origin, direction, max, caster.solid, &filter)
-                        .into_iter()
-                        .collect()
-                } else {
-                    query.ray_hits(
-                        ray.origin,
-                        direction,
-                        max,
-                        caster.max_hits,
-                        caster.solid,
-                        &filter,
-                    )
-                }
-            }
-            Err(error) => {
-                reported.report(&mut next, entity, error, || {
-                    caster_label("ray caster", entity, name)
-                });
-                Vec::new()
-            }
-        };
-        if hits.0 != found {
-            hits.0 = found;
-        }
-    }
-    reported.0 = next;
+    update_casters(casters, query, reported);
 }

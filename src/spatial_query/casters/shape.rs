@@ -1,12 +1,13 @@
 //! [`ShapeCaster`]: a shape cast every physics step from its entity, its hits kept in
 //! [`ShapeHits`].
 
-use bevy::ecs::entity::EntityHashMap;
 use bevy::prelude::*;
 
-use super::super::system_param::{check_distance, check_point, shape_pose, unit_direction};
+use super::super::system_param::{
+    check_distance, check_point, shape_pose, sort_hits, unit_direction,
+};
 use super::super::{ShapeCastConfig, ShapeHitData, SpatialQuery, SpatialQueryFilter};
-use super::{ReportedErrors, caster_frame, caster_label};
+use super::{Caster, CasterData, ReportedErrors, caster_filter, update_casters};
 use crate::collision::Collider;
 
 /// Casts a shape every physics step from its entity and keeps the hits in [`ShapeHits`]
@@ -219,94 +220,77 @@ impl ShapeHits {
     /// avian3d's API).
     pub fn iter_sorted(&self) -> std::vec::IntoIter<ShapeHitData> {
         let mut hits = self.0.clone();
-        hits.sort_by(|a, b| {
-            a.distance
-                .total_cmp(&b.distance)
-                .then(a.entity.cmp(&b.entity))
-        });
+        sort_hits(&mut hits);
         hits.into_iter()
     }
 }
 
 /// The components [`update_shape_casters`] reads and writes.
-type ShapeCasterData = (
-    Entity,
-    &'static mut ShapeCaster,
-    &'static mut ShapeHits,
-    Option<&'static Transform>,
-    Option<&'static Name>,
-);
+type ShapeCasterData = CasterData<ShapeCaster, ShapeHits>;
+
+impl Caster for ShapeCaster {
+    type Hit = ShapeHitData;
+    type Input = (Vec3, Vec3, Quat);
+    const WHAT: &'static str = "shape caster";
+
+    fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    fn input(&self, translation: Vec3, rotation: Quat) -> Result<(Vec3, Vec3, Quat), String> {
+        let origin = check_point("origin", translation + rotation * self.origin)?;
+        let direction = unit_direction(rotation * self.direction.as_vec3())?;
+        check_distance("max distance", self.max_distance)?;
+        check_distance("target distance", self.target_distance)?;
+        let pose = shape_pose(&self.shape, origin, rotation * self.shape_rotation)?;
+        Ok((origin, direction, pose.rotation))
+    }
+
+    fn cast(
+        &mut self,
+        (origin, direction, shape_rotation): (Vec3, Vec3, Quat),
+        entity: Entity,
+        query: &SpatialQuery,
+    ) -> Vec<ShapeHitData> {
+        // `unit_direction` gave a unit vector: the `Dir3` is valid.
+        let direction = Dir3::new_unchecked(direction);
+        self.global_origin = origin;
+        self.global_shape_rotation = shape_rotation;
+        self.global_direction = direction;
+        let filter = caster_filter(&self.query_filter, self.ignore_self, entity);
+        let config = self.config();
+        if self.max_hits == 1 {
+            query
+                .cast_shape(
+                    &self.shape,
+                    origin,
+                    shape_rotation,
+                    direction,
+                    &config,
+                    &filter,
+                )
+                .into_iter()
+                .collect()
+        } else {
+            query.shape_hits(
+                &self.shape,
+                origin,
+                shape_rotation,
+                direction,
+                self.max_hits,
+                &config,
+                &filter,
+            )
+        }
+    }
+}
 
 /// Casts every enabled [`ShapeCaster`] from its entity's pose and stores its hits in its
 /// [`ShapeHits`] (cleared for a disabled caster or bad input, which is logged once per caster).
 pub fn update_shape_casters(
-    mut casters: Query<ShapeCasterData>,
+    casters: Query<ShapeCasterData>,
     query: SpatialQuery,
-    mut reported: Local<ReportedErrors>,
+    reported: Local<ReportedErrors>,
 ) {
-    let mut next = EntityHashMap::default();
-    for (entity, mut caster, mut hits, transform, name) in &mut casters {
-        if !caster.enabled {
-            if !hits.is_empty() {
-                hits.clear();
-            }
-            continue;
-        }
-        let cast = caster_frame(transform).and_then(|(translation, rotation)| {
-            let origin = check_point("origin", translation + rotation * caster.origin)?;
-            let direction = unit_direction(rotation * caster.direction.as_vec3())?;
-            check_distance("max distance", caster.max_distance)?;
-            check_distance("target distance", caster.target_distance)?;
-            let pose = shape_pose(&caster.shape, origin, rotation * caster.shape_rotation)?;
-            Ok((origin, direction, pose.rotation))
-        });
-        let found = match cast {
-            Ok((origin, direction, shape_rotation)) => {
-                // `unit_direction` gave a unit vector: the `Dir3` is valid.
-                let direction = Dir3::new_unchecked(direction);
-                let caster = caster.bypass_change_detection();
-                caster.global_origin = origin;
-                caster.global_shape_rotation = shape_rotation;
-                caster.global_direction = direction;
-                let mut filter = caster.query_filter.clone();
-                if caster.ignore_self {
-                    filter.excluded_entities.insert(entity);
-                }
-                let config = caster.config();
-                if caster.max_hits == 1 {
-                    query
-                        .cast_shape(
-                            &caster.shape,
-                            origin,
-                            shape_rotation,
-                            direction,
-                            &config,
-                            &filter,
-                        )
-                        .into_iter()
-                        .collect()
-                } else {
-                    query.shape_hits(
-                        &caster.shape,
-                        origin,
-                        shape_rotation,
-                        direction,
-                        caster.max_hits,
-                        &config,
-                        &filter,
-                    )
-                }
-            }
-            Err(error) => {
-                reported.report(&mut next, entity, error, || {
-                    caster_label("shape caster", entity, name)
-                });
-                Vec::new()
-            }
-        };
-        if hits.0 != found {
-            hits.0 = found;
-        }
-    }
-    reported.0 = next;
+    update_casters(casters, query, reported);
 }

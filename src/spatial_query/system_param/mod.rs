@@ -150,32 +150,77 @@ impl SpatialQuery<'_, '_> {
         best.into_inner()
     }
 
-    /// Every hit of a cast on the colliders `filter` admits, sorted by distance then entity:
-    /// `hit` tests one collider, `reaches` whether the cast enters a box.
-    fn sorted_hits<H: Hit>(
+    /// The nearest hit of `cast` (none for bad input) on the colliders `filter` admits and for
+    /// whose entity `predicate` is true.
+    fn nearest_cast<C: Cast>(
         &self,
+        cast: Result<C, String>,
         filter: &SpatialQueryFilter,
-        reaches: impl Fn(&Aabb) -> bool,
-        hit: impl Fn(&QueryCollider) -> Option<H>,
-    ) -> Vec<H> {
+        predicate: &dyn Fn(Entity) -> bool,
+    ) -> Option<C::Hit> {
+        let cast = cast.ok()?;
+        self.nearest_hit(
+            filter,
+            predicate,
+            cast.max(),
+            |aabb, bound| cast.entry(aabb, bound),
+            |c| cast.hit(c),
+        )
+    }
+
+    /// Every hit of `cast` (none for bad input) on the colliders `filter` admits, sorted by
+    /// distance then entity.
+    fn sorted_hits<C: Cast>(
+        &self,
+        cast: Result<C, String>,
+        filter: &SpatialQueryFilter,
+    ) -> Vec<C::Hit> {
+        let Ok(cast) = cast else {
+            return Vec::new();
+        };
+        let max = cast.max();
         let mut hits = Vec::new();
-        self.colliders.candidates(&self.tree, reaches, |c| {
-            if self.accepts(c, filter)
-                && let Some(h) = hit(c)
-            {
-                hits.push(h);
-            }
-        });
-        hits.sort_by(|a, b| {
-            let ((da, ea), (db, eb)) = (a.order(), b.order());
-            da.total_cmp(&db).then(ea.cmp(&eb))
-        });
+        self.colliders.candidates(
+            &self.tree,
+            |aabb| cast.entry(aabb, max).is_some(),
+            |c| {
+                if self.accepts(c, filter)
+                    && let Some(h) = cast.hit(c)
+                {
+                    hits.push(h);
+                }
+            },
+        );
+        sort_hits(&mut hits);
         hits
     }
 }
 
+/// A cast's checked input: how far it reaches, the box test the tree walk prunes with, and
+/// its exact test on one collider.
+trait Cast {
+    /// What it gives for a collider it hits.
+    type Hit: Hit;
+    /// How far it reaches, m.
+    fn max(&self) -> f32;
+    /// How far it travels before it meets `aabb`, if it does within `max` (m). No hit inside
+    /// `aabb` is nearer.
+    fn entry(&self, aabb: &Aabb, max: f32) -> Option<f32>;
+    /// Its hit on `c`, exactly.
+    fn hit(&self, c: &QueryCollider) -> Option<Self::Hit>;
+}
+
+/// Sorts `hits` by distance, then entity.
+pub(super) fn sort_hits<H: Hit>(hits: &mut [H]) {
+    hits.sort_by(|a, b| {
+        let ((da, ea), (db, eb)) = (a.order(), b.order());
+        da.total_cmp(&db).then(ea.cmp(&eb))
+    });
+}
+
 /// A cast's hit, ordered by distance (m) then entity.
-trait Hit {
+pub(super) trait Hit {
+    /// Its distance (m) and entity.
     fn order(&self) -> (f32, Entity);
 }
 

@@ -8,7 +8,7 @@ use parry3d::query::Ray;
 use super::super::colliders::QueryCollider;
 use super::super::exact;
 use super::super::{RayHitData, SpatialQueryFilter};
-use super::{SpatialQuery, ray_input};
+use super::{Cast, SpatialQuery, ray_input};
 
 impl SpatialQuery<'_, '_> {
     /// The first hit of a ray from `origin` (m) along `direction` within `max_distance` (m), on
@@ -36,15 +36,8 @@ impl SpatialQuery<'_, '_> {
         filter: &SpatialQueryFilter,
         predicate: &dyn Fn(Entity) -> bool,
     ) -> Option<RayHitData> {
-        let (ray, max) = ray_input(origin, direction.as_vec3(), max_distance).ok()?;
-        let slab = Slab::new(&ray);
-        self.nearest_hit(
-            filter,
-            predicate,
-            max,
-            |aabb, bound| slab.entry(aabb, bound),
-            |c| ray_hit(c, &ray, max, solid),
-        )
+        let cast = CheckedRay::new(origin, direction, max_distance, solid);
+        self.nearest_cast(cast, filter, predicate)
     }
 
     /// Every hit of a ray (see [`cast_ray`](Self::cast_ray)), nearest first (then by entity),
@@ -58,7 +51,8 @@ impl SpatialQuery<'_, '_> {
         solid: bool,
         filter: &SpatialQueryFilter,
     ) -> Vec<RayHitData> {
-        let mut hits = self.all_ray_hits(origin, direction, max_distance, solid, filter);
+        let cast = CheckedRay::new(origin, direction, max_distance, solid);
+        let mut hits = self.sorted_hits(cast, filter);
         hits.truncate(max_hits as usize);
         hits
     }
@@ -74,43 +68,58 @@ impl SpatialQuery<'_, '_> {
         filter: &SpatialQueryFilter,
         mut callback: impl FnMut(RayHitData) -> bool,
     ) {
-        for hit in self.all_ray_hits(origin, direction, max_distance, solid, filter) {
+        let cast = CheckedRay::new(origin, direction, max_distance, solid);
+        for hit in self.sorted_hits(cast, filter) {
             if !callback(hit) {
                 break;
             }
         }
     }
+}
 
-    /// Every hit of a ray, sorted by distance then entity.
-    fn all_ray_hits(
-        &self,
-        origin: Vec3,
-        direction: Dir3,
-        max_distance: f32,
-        solid: bool,
-        filter: &SpatialQueryFilter,
-    ) -> Vec<RayHitData> {
-        let Ok((ray, max)) = ray_input(origin, direction.as_vec3(), max_distance) else {
-            return Vec::new();
-        };
+/// A ray cast's checked input (see [`SpatialQuery`]'s "Bad input"), and its box test.
+struct CheckedRay {
+    ray: Ray,
+    max: f32,
+    solid: bool,
+    slab: Slab,
+}
+
+impl CheckedRay {
+    fn new(origin: Vec3, direction: Dir3, max_distance: f32, solid: bool) -> Result<Self, String> {
+        let (ray, max) = ray_input(origin, direction.as_vec3(), max_distance)?;
         let slab = Slab::new(&ray);
-        self.sorted_hits(
-            filter,
-            |aabb| slab.entry(aabb, max).is_some(),
-            |c| ray_hit(c, &ray, max, solid),
-        )
+        Ok(CheckedRay {
+            ray,
+            max,
+            solid,
+            slab,
+        })
     }
 }
 
-/// `c`'s hit by `ray` within `max` (m), exactly (see [`exact::cast_ray`]).
-fn ray_hit(c: &QueryCollider, ray: &Ray, max: f32, solid: bool) -> Option<RayHitData> {
-    let hit = exact::cast_ray(c.shape.as_ref(), &c.pose, ray, max, solid)?;
-    Some(RayHitData {
-        entity: c.entity,
-        distance: hit.time_of_impact,
-        normal: hit.normal,
-        point: ray.point_at(hit.time_of_impact),
-    })
+impl Cast for CheckedRay {
+    type Hit = RayHitData;
+
+    fn max(&self) -> f32 {
+        self.max
+    }
+
+    fn entry(&self, aabb: &Aabb, max: f32) -> Option<f32> {
+        self.slab.entry(aabb, max)
+    }
+
+    /// The ray's hit on `c` within its reach, exactly (see [`exact::cast_ray`]).
+    fn hit(&self, c: &QueryCollider) -> Option<RayHitData> {
+        let ray = &self.ray;
+        let hit = exact::cast_ray(c.shape.as_ref(), &c.pose, ray, self.max, self.solid)?;
+        Some(RayHitData {
+            entity: c.entity,
+            distance: hit.time_of_impact,
+            normal: hit.normal,
+            point: ray.point_at(hit.time_of_impact),
+        })
+    }
 }
 
 /// A ray prepared for box tests: its origin and the reciprocals of its direction's components.

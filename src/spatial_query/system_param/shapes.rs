@@ -10,7 +10,7 @@ use parry3d::shape::Shape;
 use super::super::colliders::{QueryCollider, slack};
 use super::super::exact;
 use super::super::{ShapeCastConfig, ShapeHitData, SpatialQueryFilter};
-use super::{SpatialQuery, check_distance, shape_pose, unit_direction};
+use super::{Cast, SpatialQuery, check_distance, shape_pose, unit_direction};
 use crate::collision::Collider;
 
 impl SpatialQuery<'_, '_> {
@@ -50,15 +50,8 @@ impl SpatialQuery<'_, '_> {
         filter: &SpatialQueryFilter,
         predicate: &dyn Fn(Entity) -> bool,
     ) -> Option<ShapeHitData> {
-        let cast =
-            ShapeCast::new(shape, origin, shape_rotation, direction.as_vec3(), config).ok()?;
-        self.nearest_hit(
-            filter,
-            predicate,
-            cast.options.max_time_of_impact,
-            |aabb, bound| cast.entry(aabb, bound),
-            |c| cast.hit(c),
-        )
+        let cast = ShapeCast::new(shape, origin, shape_rotation, direction.as_vec3(), config);
+        self.nearest_cast(cast, filter, predicate)
     }
 
     /// Every collider `shape` hits when cast (see [`cast_shape`](Self::cast_shape)), nearest
@@ -74,8 +67,8 @@ impl SpatialQuery<'_, '_> {
         config: &ShapeCastConfig,
         filter: &SpatialQueryFilter,
     ) -> Vec<ShapeHitData> {
-        let mut hits =
-            self.all_shape_hits(shape, origin, shape_rotation, direction, config, filter);
+        let cast = ShapeCast::new(shape, origin, shape_rotation, direction.as_vec3(), config);
+        let mut hits = self.sorted_hits(cast, filter);
         hits.truncate(max_hits as usize);
         hits
     }
@@ -94,33 +87,12 @@ impl SpatialQuery<'_, '_> {
         filter: &SpatialQueryFilter,
         mut callback: impl FnMut(ShapeHitData) -> bool,
     ) {
-        for hit in self.all_shape_hits(shape, origin, shape_rotation, direction, config, filter) {
+        let cast = ShapeCast::new(shape, origin, shape_rotation, direction.as_vec3(), config);
+        for hit in self.sorted_hits(cast, filter) {
             if !callback(hit) {
                 break;
             }
         }
-    }
-
-    /// Every hit of a shape cast, sorted by distance then entity.
-    fn all_shape_hits(
-        &self,
-        shape: &Collider,
-        origin: Vec3,
-        shape_rotation: Quat,
-        direction: Dir3,
-        config: &ShapeCastConfig,
-        filter: &SpatialQueryFilter,
-    ) -> Vec<ShapeHitData> {
-        let Ok(cast) = ShapeCast::new(shape, origin, shape_rotation, direction.as_vec3(), config)
-        else {
-            return Vec::new();
-        };
-        let max = cast.options.max_time_of_impact;
-        self.sorted_hits(
-            filter,
-            |aabb| cast.entry(aabb, max).is_some(),
-            |c| cast.hit(c),
-        )
     }
 }
 
@@ -170,6 +142,14 @@ impl<'a> ShapeCast<'a> {
             center_ray: Ray::new(center, direction),
             reach,
         })
+    }
+}
+
+impl Cast for ShapeCast<'_> {
+    type Hit = ShapeHitData;
+
+    fn max(&self) -> f32 {
+        self.options.max_time_of_impact
     }
 
     /// How far the cast shape's box travels before it meets `aabb` (or comes within the

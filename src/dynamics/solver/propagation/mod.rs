@@ -260,23 +260,19 @@ pub fn propagate(
             while next < event.len() {
                 let g = event[next];
                 next += 1;
-                let Some((a, b)) = pairs[g] else { continue };
-                for body in [a, b] {
-                    for &l in touching.of(body) {
-                        let l = l as usize;
-                        if in_event[l] || done[l] {
-                            continue;
-                        }
-                        let Some(t) = approaches(l, &stamp, bodies, contacts, &met) else {
-                            continue;
-                        };
-                        if (t - time).abs() > SIMULTANEOUS * params.dt {
-                            continue;
-                        }
-                        in_event[l] = true;
-                        event.push(l);
-                        event_time = event_time.max(t);
+                for l in touching.of_pair(pairs[g]) {
+                    if in_event[l] || done[l] {
+                        continue;
                     }
+                    let Some(t) = approaches(l, &stamp, bodies, contacts, &met) else {
+                        continue;
+                    };
+                    if (t - time).abs() > SIMULTANEOUS * params.dt {
+                        continue;
+                    }
+                    in_event[l] = true;
+                    event.push(l);
+                    event_time = event_time.max(t);
                 }
             }
             // Then, if the event is inelastic, the touching inelastic groups of its bodies,
@@ -292,21 +288,17 @@ pub fn propagate(
             while next < event.len() && rows < JOINED_ROWS {
                 let g = event[next];
                 next += 1;
-                let Some((a, b)) = pairs[g] else { continue };
-                for body in [a, b] {
-                    for &l in touching.of(body) {
-                        let l = l as usize;
-                        if in_event[l]
-                            || rows >= JOINED_ROWS
-                            || !joins(&contacts[groups[l].clone()], params.touch)
-                        {
-                            continue;
-                        }
-                        in_event[l] = true;
-                        joined[l] = true;
-                        event.push(l);
-                        rows += groups[l].len();
+                for l in touching.of_pair(pairs[g]) {
+                    if in_event[l]
+                        || rows >= JOINED_ROWS
+                        || !joins(&contacts[groups[l].clone()], params.touch)
+                    {
+                        continue;
                     }
+                    in_event[l] = true;
+                    joined[l] = true;
+                    event.push(l);
+                    rows += groups[l].len();
                 }
             }
             resolve_event(

@@ -220,6 +220,14 @@ impl GroupsOfBody {
     pub(super) fn of(&self, body: usize) -> &[u32] {
         &self.groups[self.start[body] as usize..self.start[body + 1] as usize]
     }
+
+    /// The groups of either body of `pair` (none for no pair), the first body's first.
+    pub(super) fn of_pair(&self, pair: Option<(usize, usize)>) -> impl Iterator<Item = usize> {
+        pair.into_iter()
+            .flat_map(|(a, b)| [a, b])
+            .flat_map(|body| self.of(body))
+            .map(|&l| l as usize)
+    }
 }
 
 /// Either body of the pair was struck earlier in this pass: the group is part of a chain of
