@@ -127,6 +127,7 @@ pub(super) fn resolve_event(
     event: &[usize],
     met: &[bool],
     joined: &[bool],
+    spent: &[bool],
     inelastic: bool,
     toi: f32,
     params: &Propagation,
@@ -194,7 +195,11 @@ pub(super) fn resolve_event(
             let closing = start.normal_mass > 0.0
                 && vn < 0.0
                 && closes_within(gap(start, met[g]), vn, gn, params);
-            let row = at_time(start, bodies, toi);
+            let mut row = at_time(start, bodies, toi);
+            // A group that has spent its bounce in this pass is inelastic (see `struck_again`).
+            if spent[g] {
+                row.restitution = 0.0;
+            }
             // The target in f64 for the exact solve (the same formula).
             targets.push(if closing {
                 let vn = lcp::normal_velocity(&row, bodies);

@@ -178,6 +178,11 @@ pub fn propagate(
     let mut done = vec![false; groups.len()];
     // The sweep's approaching groups by time of impact, earliest first (ties by index).
     let mut queue: BinaryHeap<Reverse<Queued>> = BinaryHeap::new();
+    // The time of each group's last impact in this pass (NaN: none yet), and whether it was
+    // struck again at that same instant, which spends its bounce (see `struck_again`):
+    // from then on it is inelastic in this pass.
+    let mut last_impact = vec![f32::NAN; groups.len()];
+    let mut spent = vec![false; groups.len()];
     loop {
         let pending =
             (0..groups.len()).any(|k| needs_check(k, &stamp, &checked, &postponed, report.sweeps));
@@ -186,7 +191,7 @@ pub fn propagate(
         }
         if report.sweeps == params.max_sweeps {
             report.bound_hit = (0..groups.len()).any(|k| {
-                let chain = chained(pairs[k], &stamp);
+                let chain = chained(pairs[k], &stamp) && !spent[k];
                 approach_time(bodies, contacts, &groups[k], params, met[k], chain).is_some()
             });
             break;
@@ -197,8 +202,11 @@ pub fn propagate(
                           stamp: &[u32],
                           bodies: &[SolverBody],
                           contacts: &[ContactConstraint],
-                          met: &[bool]| {
-            let chain = chained(pairs[k], stamp);
+                          met: &[bool],
+                          spent: &[bool]| {
+            // A group whose bounces are spent is inelastic: it counts from the threshold of
+            // an inelastic contact, not the chain's.
+            let chain = chained(pairs[k], stamp) && !spent[k];
             approach_time(bodies, contacts, &groups[k], params, met[k], chain)
         };
         done.fill(false);
@@ -214,7 +222,7 @@ pub fn propagate(
                 continue;
             }
             postponed[k] = false;
-            match approaches(k, &stamp, bodies, contacts, &met) {
+            match approaches(k, &stamp, bodies, contacts, &met, &spent) {
                 Some(time) => queue.push(Reverse(Queued { time, group: k })),
                 None => checked[k] = resolutions,
             }
@@ -227,7 +235,7 @@ pub fn propagate(
             if done[k] {
                 continue;
             }
-            let Some(time) = approaches(k, &stamp, bodies, contacts, &met) else {
+            let Some(time) = approaches(k, &stamp, bodies, contacts, &met, &spent) else {
                 checked[k] = resolutions;
                 continue;
             };
@@ -264,7 +272,7 @@ pub fn propagate(
                     if in_event[l] || done[l] {
                         continue;
                     }
-                    let Some(t) = approaches(l, &stamp, bodies, contacts, &met) else {
+                    let Some(t) = approaches(l, &stamp, bodies, contacts, &met, &spent) else {
                         continue;
                     };
                     if (t - time).abs() > SIMULTANEOUS * params.dt {
@@ -275,13 +283,15 @@ pub fn propagate(
                     event_time = event_time.max(t);
                 }
             }
-            // Then, if the event is inelastic, the touching inelastic groups of its bodies,
-            // transitively, nearest first, while it has fewer than `JOINED_ROWS` rows.
+            // Then, if the event is inelastic (its groups have no restitution, or have spent
+            // their bounces), the touching inelastic groups of its bodies, transitively,
+            // nearest first, while it has fewer than `JOINED_ROWS` rows.
             let inelastic = params.join_touching
                 && event.iter().all(|&g| {
-                    contacts[groups[g].clone()]
-                        .iter()
-                        .all(|c| c.restitution == 0.0)
+                    spent[g]
+                        || contacts[groups[g].clone()]
+                            .iter()
+                            .all(|c| c.restitution == 0.0)
                 });
             let mut rows = event.iter().map(|&g| groups[g].len()).sum::<usize>();
             let mut next = if inelastic { 0 } else { event.len() };
@@ -291,7 +301,7 @@ pub fn propagate(
                 for l in touching.of_pair(pairs[g]) {
                     if in_event[l]
                         || rows >= JOINED_ROWS
-                        || !joins(&contacts[groups[l].clone()], params.touch)
+                        || !joins(&contacts[groups[l].clone()], params.touch, spent[l])
                     {
                         continue;
                     }
@@ -308,6 +318,7 @@ pub fn propagate(
                 &event,
                 &met,
                 &joined,
+                &spent,
                 inelastic,
                 event_time,
                 params,
@@ -332,6 +343,11 @@ pub fn propagate(
                 }
                 met[g] = true;
                 done[g] = true;
+                spent[g] |= struck_again(last_impact[g], event_time, params.dt)
+                    && contacts[groups[g].clone()]
+                        .iter()
+                        .all(|c| c.restitution < 1.0);
+                last_impact[g] = event_time;
                 let (a, b) = pairs[g].expect("an event's groups have bodies");
                 if let Some(clusters) = clusters.as_mut() {
                     clusters.join(a, b, bodies);
@@ -353,7 +369,7 @@ pub fn propagate(
                 }
                 for &l in touching.of(body) {
                     let l = l as usize;
-                    match approaches(l, &stamp, bodies, contacts, &met) {
+                    match approaches(l, &stamp, bodies, contacts, &met, &spent) {
                         None => checked[l] = resolutions,
                         Some(time) if !done[l] => queue.push(Reverse(Queued { time, group: l })),
                         // Resolved in this sweep and approaching again: it waits for the next

@@ -137,10 +137,34 @@ impl Clusters {
 /// rounding of a time of impact (about 1e-7 of the step).
 pub(super) const SIMULTANEOUS: f32 = 1e-4;
 
+/// A group struck at `now` whose last impact in the pass was at `last` (NaN: none) is struck
+/// again at the same instant (within [`SIMULTANEOUS`] of the step `dt`). A group with
+/// restitution below 1 that is struck again has spent its bounce and is inelastic for the
+/// rest of the pass: its restitution counts as 0, it is
+/// approaching only from the inelastic threshold (not the chain's), and it joins inelastic
+/// events as a touching group, which are solved exactly as one block. Why: in a touching cluster with restitution (a pile
+/// of balls with `e = 0.2`), an impact is passed back and forth between the same bodies at one
+/// instant, each time smaller (inelastic collapse, McNamara and Young 1994): 400 spheres
+/// poured into a box, 60 Hz, hit the bound of 64 sweeps in 24 steps, some groups resolved 50
+/// times in one pass; 400 mixed bodies with `e = 0.2` in 148 steps. Event-driven simulations
+/// of granular gases meet the same collapse and end it by changing the restitution of
+/// collisions that follow too soon (the TC model, Luding and McNamara 1998); here they become
+/// inelastic, the simultaneous answer, which never adds energy. Impacts at different
+/// instants keep their restitution, however many there are (a ball rattling between two walls
+/// within a step), and so does each contact of a chain struck once (Newton's cradle). So does
+/// `e = 1`: each exchange keeps the energy, the approaches do not die away, and the exact
+/// sequence is finite (a 1 kg ball between a wall and a 100 kg ball, touching, is struck 31
+/// times at one instant, and the 100 kg ball leaves with all its energy).
+#[inline]
+pub(super) fn struck_again(last: f32, now: f32, dt: f32) -> bool {
+    (now - last).abs() <= SIMULTANEOUS * dt
+}
+
 /// The group (one body pair's rows) joins an impact event of one of its bodies as touching:
-/// every row is inelastic and one of them touches ([`touches`]).
-pub(super) fn joins(rows: &[ContactConstraint], touch: f32) -> bool {
-    rows.iter().all(|c| c.restitution == 0.0) && rows.iter().any(|c| touches(c, touch))
+/// every row is inelastic (or the group has spent its bounce, `spent`: see [`struck_again`])
+/// and one of them touches ([`touches`]).
+pub(super) fn joins(rows: &[ContactConstraint], touch: f32, spent: bool) -> bool {
+    (spent || rows.iter().all(|c| c.restitution == 0.0)) && rows.iter().any(|c| touches(c, touch))
 }
 
 /// The row of a joined group takes part in the event: it can push, and it touches at the
