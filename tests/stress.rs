@@ -766,6 +766,55 @@ fn three_ball_hit_is_symmetric() {
     );
 }
 
+/// Mechanical energy (kinetic plus `m g y`) of `bodies`, J.
+fn mechanical(app: &App, bodies: &[Entity]) -> f64 {
+    bodies
+        .iter()
+        .map(|&b| {
+            let s = body_state(app, b);
+            s.kinetic + s.mass * G as f64 * s.center.y
+        })
+        .sum()
+}
+
+/// Pinned (issue 8): a column of 10 cubes alternating 1 kg (the bottom one) and 0.01 kg, with
+/// friction, awake: under the default its energy rises. Answer: a resting column's mechanical
+/// energy never rises above its start by more than its soft contacts store, at most
+/// `4 n M g delta` (as in `tests/energy.rs`: `n` = 10 cubes, `M` = 5.05 kg, `delta` the
+/// soft sink, 0.28 mm): 0.55 J. Measured (10 s, release; the rise above the start, J):
+/// friction 0.2: 37 at 30 Hz, 690 at 60 Hz, 19 at 120 Hz; friction 1.0: 15, 68 and 7. At
+/// 60 Hz, friction 0.2: a light cube between heavy ones starts to rock at about step 80, its
+/// spin grows, and at step 214, tilted 0.46 rad between its two 1 kg neighbours, it is shot
+/// out at 146 m/s and 574 rad/s, 700 J in one step: the light support under a heavy load of
+/// the README's open cause (a held support answering a substep late). Frictionless, the
+/// same column stands (no rise in 10 s at 30, 60 and 120 Hz), and under `Propagation` it
+/// stands with friction too (its light cubes sink 1.3 cm, no position correction); the soft
+/// step and sequential impulses let it fall (no rise), Jacobi crushes it (0.27 m).
+#[test]
+#[ignore = "fails (issue 8): the default's 1:100 alternating column with friction gains energy (690 J at 60 Hz, friction 0.2: a light cube shot out at 146 m/s); see doc"]
+fn column_alternating_light_with_friction_pinned() {
+    for hz in [30.0, 60.0, 120.0] {
+        for friction in [0.2, 1.0] {
+            let mut app = awake_default_at(hz);
+            let cubes = scenes::column(app.world_mut(), 10, friction, 0.01);
+            app.update();
+            let e0 = mechanical(&app, &cubes);
+            let weight: f64 =
+                cubes.iter().map(|&b| body_state(&app, b).mass).sum::<f64>() * G as f64;
+            let sink = G as f64 / (2.0 * std::f64::consts::PI * 30.0).powi(2);
+            let allowance = 4.0 * cubes.len() as f64 * weight * sink;
+            for step in 0..steps_for(&app, 10.0) {
+                app.update();
+                let e = mechanical(&app, &cubes);
+                assert!(
+                    e <= e0 + allowance,
+                    "{hz} Hz, friction {friction}, step {step}: energy {e} J, start {e0} J"
+                );
+            }
+        }
+    }
+}
+
 /// Issue 8, a family the stress scenes had no member of: piles with restitution. 400 bodies
 /// (spheres, or the mixed shapes with mass ratios to 100:1) poured into the walled box of
 /// `Pour::walled_box` (r 0.5 m, density 1), every body with restitution `e`, 60 Hz, the
@@ -800,18 +849,8 @@ fn piles_with_restitution_never_hit_the_bound() {
         for &b in &spawned.bodies {
             app.world_mut().entity_mut(b).insert(Restitution(e));
         }
-        let energy = |app: &App| -> f64 {
-            spawned
-                .bodies
-                .iter()
-                .map(|&b| {
-                    let s = body_state(app, b);
-                    s.kinetic + s.mass * G as f64 * s.center.y
-                })
-                .sum()
-        };
         app.update();
-        let e0 = energy(&app);
+        let e0 = mechanical(&app, &spawned.bodies);
         let weight: f64 = spawned
             .bodies
             .iter()
@@ -831,7 +870,7 @@ fn piles_with_restitution_never_hit_the_bound() {
             for &b in &spawned.bodies {
                 assert!(app.world().get::<Quarantined>(b).is_none(), "{what}: {b}");
             }
-            let now = energy(&app);
+            let now = mechanical(&app, &spawned.bodies);
             assert!(
                 now <= e0 + allowance,
                 "{what}: step {step}, energy {now} J above {e0} J + {allowance} J"
