@@ -90,7 +90,7 @@ fn solved_motion(state: &PhysicsState, i: usize) -> (StepMotion, f32) {
 /// Whether body `i` is an awake dynamic body whose solved motion sweeps farther than the
 /// contact margin.
 fn sweeps_fast(state: &PhysicsState, i: usize) -> bool {
-    let margin = state.settings.config.contact_margin;
+    let margin = state.settings.narrow.contact_margin;
     state.bodies[i].motion == Motion::Dynamic
         && state.asleep[i].is_none()
         && solved_motion(state, i).1 > margin
@@ -271,7 +271,7 @@ pub fn solve_contacts(
         &rows.keys,
         &rows.detected,
         &candidates.dormant,
-        state.settings.touch_distance,
+        state.settings.narrow.touch_distance,
         &mut events.started,
         &mut events.ended,
     );

@@ -34,13 +34,13 @@ pub(super) fn pair_geometry(
     // Long on purpose: a pair's kinds (dormant, detected only, meeting at a time of impact,
     // resting) end it early one after the other, sharing the poses, shapes and unit; a split
     // would hand all of them on.
-    let config = &state.settings.config;
+    let narrow = &state.settings.narrow;
     let (ia, ib) = candidates.indices[pair_index];
     pair.detect_only = candidates.detect_only[pair_index];
     if candidates.dormant[pair_index] {
         return Geometry::None;
     }
-    let margin = config.contact_margin;
+    let margin = narrow.contact_margin;
     let reach = state.reach[ia] + state.reach[ib];
     let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
     let (shape_a, shape_b) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
@@ -57,7 +57,7 @@ pub(super) fn pair_geometry(
             pair.manifolds.clear();
             return Geometry::None;
         }
-        let touch = state.settings.touch_distance;
+        let touch = narrow.touch_distance;
         return Geometry::Detected(
             pair.world_points(pose_a, pose_b)
                 .any(|(_, _, _, _, dist)| dist <= touch),
