@@ -16,6 +16,10 @@ use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 use super::narrow_phase::Turning;
 use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents, init_stage_state};
 
+/// Steps between two warnings that propagation hit its sweep bound: at most one a second at
+/// 60 Hz, so a scene that hits the bound every step does not flood the log.
+const BOUND_WARNING_INTERVAL: u32 = 60;
+
 /// Adds [`solve_contacts`] to [`PhysicsSystems::Solve`].
 pub struct SolvePlugin;
 
@@ -256,7 +260,7 @@ pub fn solve_contacts(
     }
     let config = &state.settings.config;
     state.steps_since_bound_warning = state.steps_since_bound_warning.saturating_add(1);
-    if stats.propagation_bound_hit && state.steps_since_bound_warning >= 60 {
+    if stats.propagation_bound_hit && state.steps_since_bound_warning >= BOUND_WARNING_INTERVAL {
         state.steps_since_bound_warning = 0;
         log::warn!(
             "impact3d: propagation stopped at its bound of {} sweeps with contacts still \

@@ -6,6 +6,11 @@ use parry3d::shape::SharedShape;
 use super::super::{CandidatePairs, PhysicsState};
 use crate::collision::narrow_phase::{ContactPair, Meeting, StepMotion, time_of_impact};
 
+/// Turn in one step, rad, beyond which a body's contact is generated at the time-of-impact
+/// poses rather than at the start pose (see [`pair_geometry`]): a quarter radian (14 degrees),
+/// past which the start pose's first-order turn of the anchors drifts from the true rotation.
+const FAR_TURN: f32 = 0.25;
+
 /// What the manifold pass found for one candidate pair (see [`pair_geometry`]).
 pub(super) enum Geometry {
     /// Dormant, or no contact within the prediction: no rows.
@@ -83,7 +88,7 @@ pub(super) fn pair_geometry(
         // time of impact instead.
         let turns_far = |i: usize| {
             state.spin_reach[i] > margin
-                && state.bodies[i].angular_velocity.length() * state.dt > 0.25
+                && state.bodies[i].angular_velocity.length() * state.dt > FAR_TURN
         };
         match time_of_impact(
             shape_a,
