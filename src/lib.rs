@@ -33,7 +33,8 @@ pub mod prelude {
         Collider, ColliderConstructor, ColliderConstructorHierarchy,
         ColliderConstructorHierarchyConfig, ColliderConstructorHierarchyReady,
         ColliderConstructorReady, ColliderDisabled, ColliderOf, CollidingEntities,
-        CollisionEventsEnabled, CollisionLayers, LayerMask, PhysicsLayer, Sensor,
+        CollisionEventsEnabled, CollisionLayers, LayerMask, NarrowPhaseConfig, PhysicsLayer,
+        Sensor,
     };
     #[cfg(feature = "debug")]
     pub use crate::debug::{DebugRender, PhysicsDebugPlugin, PhysicsGizmos};

@@ -160,6 +160,9 @@ fn settings() -> Vec<(&'static str, Setting)> {
     fn solver(w: &mut World) -> Mut<'_, SolverConfig> {
         w.resource_mut::<SolverConfig>()
     }
+    fn narrow(w: &mut World) -> Mut<'_, NarrowPhaseConfig> {
+        w.resource_mut::<NarrowPhaseConfig>()
+    }
     fn count(v: f32) -> u32 {
         if v.is_nan() || v <= 0.0 { 0 } else { u32::MAX }
     }
@@ -190,7 +193,8 @@ fn settings() -> Vec<(&'static str, Setting)> {
         }),
         ("baumgarte", |w, v| solver(w).baumgarte = v),
         ("linear_slop", |w, v| solver(w).linear_slop = v),
-        ("contact_margin", |w, v| solver(w).contact_margin = v),
+        ("contact_margin", |w, v| narrow(w).contact_margin = v),
+        ("touch_distance", |w, v| narrow(w).touch_distance = v),
         ("linear_threshold", |w, v| {
             w.resource_mut::<SleepConfig>().linear_threshold = v
         }),
@@ -210,8 +214,10 @@ fn settings() -> Vec<(&'static str, Setting)> {
 /// tested against their documented ranges in `dynamics::validation`)?
 fn invalid(world: &World) -> bool {
     let config = world.resource::<SolverConfig>();
+    let narrow = world.resource::<NarrowPhaseConfig>();
     let sleep = world.resource::<SleepConfig>();
     !config.validated(&SolverConfig::default()).1.is_empty()
+        || !narrow.validated(&NarrowPhaseConfig::default()).1.is_empty()
         || !sleep.validated(&SleepConfig::default()).1.is_empty()
         || !world
             .resource::<Gravity>()
@@ -248,6 +254,7 @@ fn seeded_settings_sweep() {
                     app.world().resource::<SleepConfig>().clone(),
                     *app.world().resource::<Gravity>(),
                     *app.world().resource::<PhysicsLengthUnit>(),
+                    app.world().resource::<NarrowPhaseConfig>().clone(),
                 );
                 set(app.world_mut(), v);
                 let is_invalid = invalid(app.world());
@@ -256,6 +263,7 @@ fn seeded_settings_sweep() {
                 app.insert_resource(saved.1);
                 app.insert_resource(saved.2);
                 app.insert_resource(saved.3);
+                app.insert_resource(saved.4);
                 scenes::run_steps(&mut app, STEPS - start - length);
                 for &e in &all {
                     assert!(app.world().get::<Quarantined>(e).is_none(), "{what}");

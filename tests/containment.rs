@@ -305,9 +305,12 @@ fn absurd_speed_box_leaves_far_box_alone() {
 #[test]
 fn bad_settings_are_logged_once_and_replaced() {
     type Set = fn(&mut World, f32);
-    let settings: [(&str, Set); 13] = [
+    let settings: [(&str, Set); 14] = [
         ("contact_margin", |w, v| {
-            w.resource_mut::<SolverConfig>().contact_margin = v
+            w.resource_mut::<NarrowPhaseConfig>().contact_margin = v
+        }),
+        ("touch_distance", |w, v| {
+            w.resource_mut::<NarrowPhaseConfig>().touch_distance = v
         }),
         ("contact_hertz", |w, v| {
             w.resource_mut::<SolverConfig>().contact_hertz = v
@@ -377,12 +380,14 @@ fn bad_settings_are_logged_once_and_replaced() {
                         p.app.world().resource::<SolverConfig>().clone(),
                         p.app.world().resource::<SleepConfig>().clone(),
                         *p.app.world().resource::<Gravity>(),
+                        p.app.world().resource::<NarrowPhaseConfig>().clone(),
                     );
                     set(p.app.world_mut(), bad);
                     run_steps(&mut p.app, 3);
                     p.app.insert_resource(saved.0);
                     p.app.insert_resource(saved.1);
                     p.app.insert_resource(saved.2);
+                    p.app.insert_resource(saved.3);
                     run_steps(&mut p.app, 27);
                     let what = format!("{method:?} sleeping {sleeping}: {name} = {bad}");
                     assert_eq!(snapshot(&p.app, &all), expected, "{what}");

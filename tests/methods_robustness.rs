@@ -8,10 +8,11 @@ use impact3d::prelude::*;
 use impact3d::scenes;
 use methods_common::*;
 
-/// Case 13 under `config`: the sphere's largest x and final velocity over 1 s at 60 Hz, and
-/// whether any impact was reported.
-fn fast_thin_wall(config: SolverConfig) -> (f32, Vec3, bool) {
+/// Case 13 under `config` and `narrow`: the sphere's largest x and final velocity over 1 s at
+/// 60 Hz, and whether any impact was reported.
+fn fast_thin_wall(config: SolverConfig, narrow: NarrowPhaseConfig) -> (f32, Vec3, bool) {
     let mut app = app_with(60.0, config);
+    app.insert_resource(narrow);
     let (_, sphere) = scenes::fast_thin_wall(app.world_mut());
     let (mut xmax, mut impact) = (f32::MIN, false);
     for _ in 0..60 {
@@ -31,7 +32,10 @@ fn fast_thin_wall(config: SolverConfig) -> (f32, Vec3, bool) {
 #[test]
 fn fast_sphere_stops_at_thin_wall_with_speculative_contacts() {
     for method in SolverMethod::ALL {
-        let (xmax, v, impact) = fast_thin_wall(SolverConfig::for_method(method));
+        let (xmax, v, impact) = fast_thin_wall(
+            SolverConfig::for_method(method),
+            NarrowPhaseConfig::default(),
+        );
         assert!(xmax <= -0.05 + 1e-4, "{method:?}: reached x = {xmax}");
         assert!(v.length() < 1e-3, "{method:?}: left at {v}");
         assert!(
@@ -39,11 +43,11 @@ fn fast_sphere_stops_at_thin_wall_with_speculative_contacts() {
             "{method:?}: no impact reported"
         );
 
-        let config = SolverConfig {
+        let narrow = NarrowPhaseConfig {
             speculative_contacts: false,
-            ..SolverConfig::for_method(method)
+            ..default()
         };
-        let (xmax, v, _) = fast_thin_wall(config);
+        let (xmax, v, _) = fast_thin_wall(SolverConfig::for_method(method), narrow);
         assert!(
             xmax > 10.0 && (v.x - 100.0).abs() < 1e-3,
             "{method:?}: {xmax} {v}"

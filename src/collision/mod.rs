@@ -14,7 +14,7 @@ pub use constructor::{
     ColliderConstructorHierarchyReady, ColliderConstructorReady,
 };
 pub use layers::{CollisionLayers, LayerMask, PhysicsLayer};
-pub use narrow_phase::{ContactPair, ContactPairs};
+pub use narrow_phase::{ContactPair, ContactPairs, NarrowPhaseConfig};
 pub use sensor::{CollidingEntities, CollisionEventsEnabled, Sensor};
 
 use bevy::prelude::*;

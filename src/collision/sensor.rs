@@ -18,9 +18,9 @@ use bevy::prelude::*;
 /// static or kinematic one is a trigger volume. A static sensor also detects static bodies.
 ///
 /// Touching is decided as for any pair: a contact point of the two shapes, at their poses at
-/// the start of the step, within 5 mm
-/// ([`TOUCH_DISTANCE`](crate::collision::narrow_phase::TOUCH_DISTANCE)). A body so fast that it
-/// crosses a sensor between two steps is not seen.
+/// the start of the step, within
+/// [`NarrowPhaseConfig::touch_distance`](crate::collision::NarrowPhaseConfig::touch_distance)
+/// (default 5 mm). A body so fast that it crosses a sensor between two steps is not seen.
 ///
 /// # Examples
 ///

@@ -7,8 +7,7 @@ use parry3d::math::Pose;
 
 use super::{BodyState, DebugRender, ImpactTrails, PhysicsGizmoGroup, PhysicsGizmos};
 use super::{arrow_segments, box_segments, cross_segments, shape_segments};
-use crate::collision::narrow_phase::TOUCH_DISTANCE;
-use crate::collision::{Collider, ContactPairs};
+use crate::collision::{Collider, ContactPairs, NarrowPhaseConfig};
 use crate::dynamics::validation::PhysicsLengthUnit;
 use crate::dynamics::{AngularVelocity, LinearVelocity, Quarantined, RigidBody, Sleeping};
 use crate::messages::Impact;
@@ -81,7 +80,7 @@ pub fn draw_aabbs(
     }
 }
 
-/// Draws each contact point closer than [`TOUCH_DISTANCE`] (in the world's
+/// Draws each contact point closer than [`NarrowPhaseConfig::touch_distance`] (in the world's
 /// [`PhysicsLengthUnit`], as the physics step counts touching) as a cross and its normal as a
 /// line (4 segments a point), at the bodies' current poses.
 pub fn draw_contacts(
@@ -89,14 +88,18 @@ pub fn draw_contacts(
     config: Res<PhysicsGizmos>,
     pairs: Option<Res<ContactPairs>>,
     unit: Option<Res<PhysicsLengthUnit>>,
+    narrow: Option<Res<NarrowPhaseConfig>>,
     transforms: Query<&Transform>,
 ) {
     let Some(pairs) = pairs.filter(|_| config.contacts) else {
         return;
     };
-    // An invalid unit is logged by the physics step, which then uses the last good one; here
-    // the default stands in for it.
-    let touch = TOUCH_DISTANCE * unit.map_or(1.0, |u| u.validated(1.0).0);
+    // An invalid unit or touch distance is logged by the physics step, which then uses the last
+    // good one; here the default stands in for it.
+    let default = NarrowPhaseConfig::default();
+    let touch = narrow.map_or(default.touch_distance, |n| {
+        n.validated(&default).0.touch_distance
+    }) * unit.map_or(1.0, |u| u.validated(1.0).0);
     let mut segments = Vec::new();
     for pair in pairs.iter().filter(|p| !p.manifolds.is_empty()) {
         let (Ok(ta), Ok(tb)) = (transforms.get(pair.a), transforms.get(pair.b)) else {

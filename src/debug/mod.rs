@@ -51,7 +51,8 @@ pub struct PhysicsGizmos {
     pub aabbs: bool,
     /// Contact points (a small cross) and normals (from the first body of the pair to the
     /// second) closer than
-    /// [`TOUCH_DISTANCE`](crate::collision::narrow_phase::TOUCH_DISTANCE). Default true.
+    /// [`NarrowPhaseConfig::touch_distance`](crate::collision::NarrowPhaseConfig::touch_distance).
+    /// Default true.
     pub contacts: bool,
     /// Each `Impact` as an arrow along its normal, `impulse_scale x j` long, fading out over
     /// `impact_fade`. Default true.

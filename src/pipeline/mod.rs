@@ -42,19 +42,21 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
-use crate::collision::BroadPhaseTree;
 use crate::collision::layers::CollisionLayers;
 use crate::collision::narrow_phase::UnitShapes;
 use crate::collision::sensor::Reporting;
+use crate::collision::{BroadPhaseTree, NarrowPhaseConfig};
 use crate::dynamics::CombineRules;
 use crate::dynamics::forces::BodyMotion;
 use crate::dynamics::sleep::SleepingSet;
 use crate::dynamics::solver::{Motion, SolverBody};
 
 /// Initialises the resources the stages share, so that each stage plugin can run with any of
-/// the others replaced or left out.
+/// the others replaced or left out: among them the [`NarrowPhaseConfig`] that the prepare stage
+/// (boxes widened by the margin), the narrow phase and the solve read.
 fn init_stage_state(app: &mut App) -> &mut App {
     app.init_resource::<PhysicsState>()
+        .init_resource::<NarrowPhaseConfig>()
         .init_resource::<BroadPhaseTree>()
         .init_resource::<CandidatePairs>()
         .init_resource::<ContactRows>()

@@ -2,7 +2,7 @@
 //! scaled to the world's length unit.
 
 use super::PhysicsState;
-use crate::collision::narrow_phase::TOUCH_DISTANCE;
+use crate::collision::NarrowPhaseConfig;
 use crate::dynamics::sleep::SleepConfig;
 use crate::dynamics::validation::{DEFAULT_DT, PhysicsLengthUnit, validated_dt};
 use crate::dynamics::{Gravity, SolverConfig};
@@ -12,12 +12,11 @@ use crate::schedule::PhysicsTime;
 #[derive(Clone, Debug)]
 pub(super) struct Settings {
     pub(super) config: SolverConfig,
+    pub(super) narrow: NarrowPhaseConfig,
     pub(super) gravity: Gravity,
     pub(super) sleep: SleepConfig,
     pub(super) dt: f32,
     pub(super) length_unit: f32,
-    /// [`TOUCH_DISTANCE`] in the length unit, m.
-    pub(super) touch_distance: f32,
     /// [`PhysicsTime::relative_speed`](crate::schedule::PhysicsTime::relative_speed).
     pub(super) relative_speed: f32,
 }
@@ -26,11 +25,11 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             config: SolverConfig::default(),
+            narrow: NarrowPhaseConfig::default(),
             gravity: Gravity::default(),
             sleep: SleepConfig::default(),
             dt: DEFAULT_DT,
             length_unit: 1.0,
-            touch_distance: TOUCH_DISTANCE,
             relative_speed: 1.0,
         }
     }
@@ -38,11 +37,13 @@ impl Default for Settings {
 
 /// Validates the settings resources and the step length (the schedule's delta times the
 /// physics clock's relative speed) against the last good values (see
-/// [`SolverConfig::validated`]), logging each invalid value once, as an error naming the
+/// [`SolverConfig::validated`] and [`NarrowPhaseConfig::validated`]), logging each invalid value once, as an error naming the
 /// field and the value, for as long as it stays.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn validate_settings(
     state: &mut PhysicsState,
     config: &SolverConfig,
+    narrow: &NarrowPhaseConfig,
     gravity: &Gravity,
     sleep: &SleepConfig,
     unit: &PhysicsLengthUnit,
@@ -55,6 +56,8 @@ pub(super) fn validate_settings(
     let dt = delta * relative_speed;
     let (config, mut errors) = config.validated(&last.config);
     errors.extend(speed_error);
+    let (narrow, e) = narrow.validated(&last.narrow);
+    errors.extend(e);
     let (gravity, e) = gravity.validated(last.gravity);
     errors.extend(e);
     let (sleep, e) = sleep.validated(&last.sleep);
@@ -71,11 +74,11 @@ pub(super) fn validate_settings(
     state.settings_reported = errors;
     state.last_good = Settings {
         config,
+        narrow,
         gravity,
         sleep,
         dt,
         length_unit: unit,
-        touch_distance: TOUCH_DISTANCE,
         relative_speed,
     };
     state.settings = state.last_good.scaled();
@@ -86,14 +89,14 @@ impl Settings {
     pub(super) fn scaled(&self) -> Settings {
         let u = self.length_unit;
         let mut s = self.clone();
+        s.narrow.contact_margin *= u;
+        s.narrow.touch_distance *= u;
         let c = &mut s.config;
-        c.contact_margin *= u;
         c.linear_slop *= u;
         c.velocity_tolerance *= u;
         c.restitution_threshold *= u;
         c.max_push_out_speed *= u;
         s.sleep.linear_threshold *= u;
-        s.touch_distance = TOUCH_DISTANCE * u;
         s
     }
 }

@@ -16,6 +16,10 @@ use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 use super::narrow_phase::Turning;
 use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents, init_stage_state};
 
+/// Steps between two warnings that propagation hit its sweep bound: at most one a second at
+/// 60 Hz, so a scene that hits the bound every step does not flood the log.
+const BOUND_WARNING_INTERVAL: u32 = 60;
+
 /// Adds [`solve_contacts`] to [`PhysicsSystems::Solve`].
 pub struct SolvePlugin;
 
@@ -90,7 +94,7 @@ fn solved_motion(state: &PhysicsState, i: usize) -> (StepMotion, f32) {
 /// Whether body `i` is an awake dynamic body whose solved motion sweeps farther than the
 /// contact margin.
 fn sweeps_fast(state: &PhysicsState, i: usize) -> bool {
-    let margin = state.settings.config.contact_margin;
+    let margin = state.settings.narrow.contact_margin;
     state.bodies[i].motion == Motion::Dynamic
         && state.asleep[i].is_none()
         && solved_motion(state, i).1 > margin
@@ -256,7 +260,7 @@ pub fn solve_contacts(
     }
     let config = &state.settings.config;
     state.steps_since_bound_warning = state.steps_since_bound_warning.saturating_add(1);
-    if stats.propagation_bound_hit && state.steps_since_bound_warning >= 60 {
+    if stats.propagation_bound_hit && state.steps_since_bound_warning >= BOUND_WARNING_INTERVAL {
         state.steps_since_bound_warning = 0;
         log::warn!(
             "impact3d: propagation stopped at its bound of {} sweeps with contacts still \
@@ -271,7 +275,7 @@ pub fn solve_contacts(
         &rows.keys,
         &rows.detected,
         &candidates.dormant,
-        state.settings.touch_distance,
+        state.settings.narrow.touch_distance,
         &mut events.started,
         &mut events.ended,
     );

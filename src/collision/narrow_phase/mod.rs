@@ -1,5 +1,6 @@
 //! Narrow phase: parry3d contact manifolds for each broad-phase pair, kept from step to step so
-//! that each tracked contact point carries its accumulated impulse (warm starting).
+//! that each tracked contact point carries its accumulated impulse (warm starting), and the
+//! settings they are generated with ([`NarrowPhaseConfig`]).
 
 use bevy::prelude::*;
 use parry3d::math::Pose;
@@ -8,10 +9,13 @@ use parry3d::query::{
 };
 use parry3d::shape::{FeatureId, Shape};
 
+mod config;
 mod pairs;
 mod toi;
 mod units;
 
+pub(crate) use config::BOX_MARGIN_SHARE;
+pub use config::{NarrowPhaseConfig, TOUCH_DISTANCE};
 pub use pairs::ContactPairs;
 pub use toi::{Meeting, StepMotion, time_of_impact};
 pub use units::{UnitShapes, binary_unit};
@@ -37,7 +41,8 @@ pub struct ContactPair {
     /// Contact manifolds, in `a`'s local frame for points `local_p1` and normal `local_n1`.
     pub manifolds: Vec<Manifold>,
     workspace: Option<ContactManifoldsWorkspace>,
-    /// The pair touched (a point within [`TOUCH_DISTANCE`], or any impulse) in the last step.
+    /// The pair touched (a point within [`NarrowPhaseConfig::touch_distance`], or any impulse)
+    /// in the last step.
     pub touching: bool,
     /// The pair was detect-only in the last step it was a candidate (a sensor in it, or no
     /// dynamic body: contacts never solved; see
@@ -235,10 +240,6 @@ pub fn face_normal_toward(
     };
     (face.dot(local) >= max_angle.cos()).then(|| rotation * face)
 }
-
-/// Points closer than this count as touching for collision start and end, m (times the
-/// world's [`PhysicsLengthUnit`](crate::dynamics::validation::PhysicsLengthUnit)).
-pub const TOUCH_DISTANCE: f32 = 0.005;
 
 #[cfg(test)]
 mod tests;

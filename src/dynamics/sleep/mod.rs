@@ -20,6 +20,7 @@ use parry3d::shape::SharedShape;
 
 use crate::collision::broad_phase::{is_unbounded, overlaps, sort_by_lower_bound, sweep_axis};
 use crate::collision::layers::CollisionLayers;
+use crate::collision::narrow_phase::BOX_MARGIN_SHARE;
 use crate::collision::sensor::Reporting;
 use crate::dynamics::rigid_body::CombineRules;
 use crate::dynamics::solver::{Motion, SolverBody};
@@ -326,7 +327,7 @@ impl SleepingSet {
         sleeper
             .shape
             .compute_aabb(&sleeper.pose)
-            .loosened(0.5 * self.margin)
+            .loosened(BOX_MARGIN_SHARE * self.margin)
     }
 
     /// Records (or replaces the record of) a sleeping body, put into the arrays in `step`.

@@ -83,7 +83,9 @@ pub enum ImpactMessages {
     AllContacts,
 }
 
-/// Solver settings, read every step: change them at run time.
+/// Solver settings, read every step: change them at run time. The contact margin, speculative
+/// contacts and the touch distance are the narrow phase's
+/// ([`NarrowPhaseConfig`](crate::collision::NarrowPhaseConfig)).
 #[derive(Resource, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Resource, Debug, Default, PartialEq)]
 pub struct SolverConfig {
@@ -126,11 +128,6 @@ pub struct SolverConfig {
     pub warm_start: bool,
     /// Mass splitting for Jacobi. Default true.
     pub mass_splitting: bool,
-    /// Contacts are generated this far before shapes touch, m. Default 0.02.
-    pub contact_margin: f32,
-    /// Widen each pair's contact margin by how far the pair can close in one step, so fast
-    /// bodies are caught before they pass through thin ones (speculative contacts). Default true.
-    pub speculative_contacts: bool,
     /// Which contacts send [`Impact`](crate::Impact) messages. Default
     /// [`ImpactMessages::Impacts`].
     pub impact_messages: ImpactMessages,
@@ -154,8 +151,6 @@ impl Default for SolverConfig {
             linear_slop: 0.005,
             warm_start: true,
             mass_splitting: true,
-            contact_margin: 0.02,
-            speculative_contacts: true,
             impact_messages: ImpactMessages::Impacts,
         }
     }

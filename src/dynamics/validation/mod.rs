@@ -27,6 +27,7 @@ use bevy::prelude::*;
 use super::rigid_body::Gravity;
 use super::sleep::SleepConfig;
 use super::solver::SolverConfig;
+use crate::collision::NarrowPhaseConfig;
 
 /// Largest coordinate of a body's position (each axis, absolute), m. Beyond it a body is
 /// quarantined. See the [module docs](self) for why.
@@ -60,10 +61,10 @@ pub const MAX_DT: f32 = 1.0;
 pub const DEFAULT_DT: f32 = 1.0 / 64.0;
 
 /// The world's length unit, m: how long "one" is for the plugin's absolute lengths and speeds.
-/// The contact margin, the linear slop, the touch distance and every speed threshold
-/// ([`SolverConfig`]'s `velocity_tolerance`, `restitution_threshold`, `max_push_out_speed`
-/// and [`SleepConfig::linear_threshold`]) are multiplied by it, and contacts are generated with
-/// the shapes scaled to the power of two nearest it (see
+/// [`NarrowPhaseConfig`]'s `contact_margin` and `touch_distance`, the linear slop and every
+/// speed threshold ([`SolverConfig`]'s `velocity_tolerance`, `restitution_threshold`,
+/// `max_push_out_speed` and [`SleepConfig::linear_threshold`]) are multiplied by it, and
+/// contacts are generated with the shapes scaled to the power of two nearest it (see
 /// [`ContactPair::update`](crate::collision::narrow_phase::ContactPair::update)). Default 1 (a
 /// world of objects around a metre); set it to the size of a typical object, e.g.
 /// `PhysicsLengthUnit(1e-3)` for a world of millimetre dice (as avian's `PhysicsLengthUnit`).
@@ -180,20 +181,19 @@ impl SolverConfig {
     /// `max_propagation_sweeps` and `max_block_iterations` 1..=100,000 (larger counts are no
     /// longer settings but hangs); `velocity_tolerance`, `restitution_threshold`,
     /// `max_push_out_speed`, `contact_damping_ratio`, `linear_slop` finite and >= 0;
-    /// `contact_hertz` finite and > 0; `baumgarte` in [0, 1]; `contact_margin` in
-    /// [0, [`MAX_LENGTH`]]. Speeds are also bounded by [`MAX_LINEAR_SPEED`] and lengths by
-    /// [`MAX_LENGTH`].
+    /// `contact_hertz` finite and > 0; `baumgarte` in [0, 1]. Speeds are also bounded by
+    /// [`MAX_LINEAR_SPEED`] and lengths by [`MAX_LENGTH`].
     ///
     /// # Examples
     ///
     /// ```
     /// use impact3d::prelude::*;
     ///
-    /// let bad = SolverConfig { contact_margin: f32::NAN, ..default() };
+    /// let bad = SolverConfig { linear_slop: f32::NAN, ..default() };
     /// let (valid, errors) = bad.validated(&SolverConfig::default());
     /// assert_eq!(valid, SolverConfig::default());
     /// assert_eq!(errors.len(), 1);
-    /// assert!(errors[0].contains("contact_margin = NaN"));
+    /// assert!(errors[0].contains("linear_slop = NaN"));
     /// # use bevy::prelude::default;
     /// ```
     pub fn validated(&self, last_good: &SolverConfig) -> (SolverConfig, Vec<String>) {
@@ -303,16 +303,51 @@ impl SolverConfig {
             ),
             warm_start: self.warm_start,
             mass_splitting: self.mass_splitting,
+            impact_messages: self.impact_messages,
+        };
+        (valid, e)
+    }
+}
+
+impl NarrowPhaseConfig {
+    /// This configuration with every invalid field replaced by `last_good`'s, and one message
+    /// per replaced field naming it and its value, exactly as [`SolverConfig::validated`]; the
+    /// pipeline calls it every step. Valid: `contact_margin` and `touch_distance` finite, in
+    /// [0, [`MAX_LENGTH`]] m.
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use impact3d::prelude::*;
+    ///
+    /// let bad = NarrowPhaseConfig { contact_margin: f32::NAN, ..default() };
+    /// let (valid, errors) = bad.validated(&NarrowPhaseConfig::default());
+    /// assert_eq!(valid, NarrowPhaseConfig::default());
+    /// assert_eq!(errors.len(), 1);
+    /// assert!(errors[0].contains("contact_margin = NaN"));
+    /// # use bevy::prelude::default;
+    /// ```
+    pub fn validated(&self, last_good: &NarrowPhaseConfig) -> (NarrowPhaseConfig, Vec<String>) {
+        let mut e = Vec::new();
+        let g = last_good;
+        let valid = NarrowPhaseConfig {
             contact_margin: field(
                 &mut e,
-                "SolverConfig::contact_margin",
+                "NarrowPhaseConfig::contact_margin",
                 self.contact_margin,
                 g.contact_margin,
                 finite_in(0.0, MAX_LENGTH),
                 "finite, >= 0 m",
             ),
             speculative_contacts: self.speculative_contacts,
-            impact_messages: self.impact_messages,
+            touch_distance: field(
+                &mut e,
+                "NarrowPhaseConfig::touch_distance",
+                self.touch_distance,
+                g.touch_distance,
+                finite_in(0.0, MAX_LENGTH),
+                "finite, >= 0 m",
+            ),
         };
         (valid, e)
     }

@@ -13,7 +13,7 @@ fn solver_config_replaces_each_bad_float_field() {
         ..SolverConfig::default()
     };
     type Setter = fn(&mut SolverConfig, f32);
-    let fields: [(&str, Setter); 8] = [
+    let fields: [(&str, Setter); 7] = [
         ("velocity_tolerance", |c, v| c.velocity_tolerance = v),
         ("restitution_threshold", |c, v| c.restitution_threshold = v),
         ("contact_hertz", |c, v| c.contact_hertz = v),
@@ -21,7 +21,6 @@ fn solver_config_replaces_each_bad_float_field() {
         ("max_push_out_speed", |c, v| c.max_push_out_speed = v),
         ("baumgarte", |c, v| c.baumgarte = v),
         ("linear_slop", |c, v| c.linear_slop = v),
-        ("contact_margin", |c, v| c.contact_margin = v),
     ];
     for (name, set) in fields {
         for bad in BAD {
@@ -39,11 +38,46 @@ fn solver_config_replaces_each_bad_float_field() {
     }
     // Zero is valid for these and invalid for the stiffness.
     let mut c = last.clone();
-    c.contact_margin = 0.0;
     c.baumgarte = 0.0;
     assert!(c.validated(&last).1.is_empty());
     c.contact_hertz = 0.0;
     assert_eq!(c.validated(&last).1.len(), 1);
+}
+
+/// Every float field of `NarrowPhaseConfig` set to each bad value is replaced by the last good
+/// value, with exactly one message naming the field and the value; zero is valid for both.
+#[test]
+fn narrow_phase_config_replaces_each_bad_float_field() {
+    let last = NarrowPhaseConfig {
+        contact_margin: 0.03,
+        ..NarrowPhaseConfig::default()
+    };
+    type Setter = fn(&mut NarrowPhaseConfig, f32);
+    let fields: [(&str, Setter); 2] = [
+        ("contact_margin", |c, v| c.contact_margin = v),
+        ("touch_distance", |c, v| c.touch_distance = v),
+    ];
+    for (name, set) in fields {
+        for bad in BAD {
+            let mut c = last.clone();
+            set(&mut c, bad);
+            let (valid, errors) = c.validated(&last);
+            assert_eq!(valid, last, "{name} = {bad}");
+            assert_eq!(errors.len(), 1, "{name} = {bad}: {errors:?}");
+            assert!(
+                errors[0].contains(&format!("NarrowPhaseConfig::{name} = {bad:?}")),
+                "{}",
+                errors[0]
+            );
+        }
+    }
+    let mut c = last.clone();
+    c.contact_margin = 0.0;
+    c.touch_distance = 0.0;
+    c.speculative_contacts = false;
+    let (valid, errors) = c.validated(&last);
+    assert!(errors.is_empty(), "{errors:?}");
+    assert_eq!(valid, c);
 }
 
 #[test]

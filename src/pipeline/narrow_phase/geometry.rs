@@ -6,6 +6,11 @@ use parry3d::shape::SharedShape;
 use super::super::{CandidatePairs, PhysicsState};
 use crate::collision::narrow_phase::{ContactPair, Meeting, StepMotion, time_of_impact};
 
+/// Turn in one step, rad, beyond which a body's contact is generated at the time-of-impact
+/// poses rather than at the start pose (see [`pair_geometry`]): a quarter radian (14 degrees),
+/// past which the start pose's first-order turn of the anchors drifts from the true rotation.
+const FAR_TURN: f32 = 0.25;
+
 /// What the manifold pass found for one candidate pair (see [`pair_geometry`]).
 pub(super) enum Geometry {
     /// Dormant, or no contact within the prediction: no rows.
@@ -34,13 +39,13 @@ pub(super) fn pair_geometry(
     // Long on purpose: a pair's kinds (dormant, detected only, meeting at a time of impact,
     // resting) end it early one after the other, sharing the poses, shapes and unit; a split
     // would hand all of them on.
-    let config = &state.settings.config;
+    let narrow = &state.settings.narrow;
     let (ia, ib) = candidates.indices[pair_index];
     pair.detect_only = candidates.detect_only[pair_index];
     if candidates.dormant[pair_index] {
         return Geometry::None;
     }
-    let margin = config.contact_margin;
+    let margin = narrow.contact_margin;
     let reach = state.reach[ia] + state.reach[ib];
     let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
     let (shape_a, shape_b) = (state.shapes[ia].as_ref(), state.shapes[ib].as_ref());
@@ -57,7 +62,7 @@ pub(super) fn pair_geometry(
             pair.manifolds.clear();
             return Geometry::None;
         }
-        let touch = state.settings.touch_distance;
+        let touch = narrow.touch_distance;
         return Geometry::Detected(
             pair.world_points(pose_a, pose_b)
                 .any(|(_, _, _, _, dist)| dist <= touch),
@@ -83,7 +88,7 @@ pub(super) fn pair_geometry(
         // time of impact instead.
         let turns_far = |i: usize| {
             state.spin_reach[i] > margin
-                && state.bodies[i].angular_velocity.length() * state.dt > 0.25
+                && state.bodies[i].angular_velocity.length() * state.dt > FAR_TURN
         };
         match time_of_impact(
             shape_a,

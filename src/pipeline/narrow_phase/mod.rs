@@ -7,8 +7,8 @@ use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, ParallelSliceMut, TaskPool};
 use parry3d::shape::SharedShape;
 
-use crate::collision::ContactPairs;
 use crate::collision::narrow_phase::{ContactPair, StepMotion, UnitShapes, binary_unit};
+use crate::collision::{ContactPairs, NarrowPhaseConfig};
 use crate::dynamics::CoefficientCombine;
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
@@ -23,15 +23,19 @@ use geometry::{Geometry, pair_geometry};
 pub use normals::{FACE_NORMAL_ANGLE, lighter_face_normal};
 pub(super) use turning::Turning;
 
-/// Adds [`update_narrow_phase`] to [`PhysicsSystems::NarrowPhase`].
+/// Adds [`update_narrow_phase`] to [`PhysicsSystems::NarrowPhase`], and the narrow phase's
+/// settings [`NarrowPhaseConfig`] (initialised to its default unless already inserted).
 pub struct NarrowPhasePlugin;
 
 impl Plugin for NarrowPhasePlugin {
     fn build(&self, app: &mut App) {
-        init_stage_state(app).add_systems(
-            PhysicsSchedule,
-            update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
-        );
+        init_stage_state(app)
+            .init_resource::<NarrowPhaseConfig>()
+            .register_type::<NarrowPhaseConfig>()
+            .add_systems(
+                PhysicsSchedule,
+                update_narrow_phase.in_set(PhysicsSystems::NarrowPhase),
+            );
     }
 }
 

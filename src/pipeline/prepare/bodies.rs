@@ -9,6 +9,7 @@ use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
 use crate::collision::collider::is_unbounded_or_hollow;
+use crate::collision::narrow_phase::BOX_MARGIN_SHARE;
 use crate::collision::sensor::Reporting;
 use crate::dynamics::forces::{AccumulatedForces, BodyMotion};
 use crate::dynamics::solver::{Motion, SolverBody};
@@ -268,8 +269,8 @@ fn sweep(
     radius: f32,
 ) -> Sweep {
     let (dt, gravity) = (settings.dt, settings.gravity.0);
-    let margin = settings.config.contact_margin;
-    let moving = settings.config.speculative_contacts && body.motion != Motion::Static;
+    let margin = settings.narrow.contact_margin;
+    let moving = settings.narrow.speculative_contacts && body.motion != Motion::Static;
     let dynamic = body.motion == Motion::Dynamic;
     // Gravity adds up to |g| dt to a dynamic body's speed within the step: without it, a
     // body falling from just beyond its reach lands `|g| dt^2` deep.
@@ -304,9 +305,9 @@ fn sweep(
             travel += 0.5 * accelerated * dt * dt;
         }
         let end = Aabb::new(aabb.mins + travel, aabb.maxs + travel);
-        aabb.merged(&end).loosened(0.5 * margin + spin)
+        aabb.merged(&end).loosened(BOX_MARGIN_SHARE * margin + spin)
     } else {
-        aabb.loosened(0.5 * margin)
+        aabb.loosened(BOX_MARGIN_SHARE * margin)
     };
     let sphere = shape.as_ball().is_some();
     Sweep {

@@ -13,6 +13,10 @@ use crate::dynamics::{Density, Mass, RigidBody, RigidBodyDisabled};
 use super::super::PhysicsState;
 use super::scale::{BuiltBody, ChildPart, same_parts};
 
+/// Most ancestors walked up from one entity: Bevy's hierarchy has no cycles, so the bound only
+/// keeps a broken one from hanging the step.
+const MAX_ANCESTORS: usize = 4096;
+
 /// What the prepare stage knows of the entity hierarchy: rebuilt each step by
 /// [`resolve_hierarchy`] (the child colliders, the world poses of parented entities), and kept
 /// across steps (each body's built shape, until its inputs change).
@@ -159,7 +163,7 @@ fn world_of(nodes: &Query<HierarchyNode>, entity: Entity) -> (Transform, bool) {
     let mut changed = false;
     let mut e = entity;
     // Bevy's hierarchy has no cycles; the bound only keeps a broken one from hanging the step.
-    for _ in 0..4096 {
+    for _ in 0..MAX_ANCESTORS {
         let Ok((transform, parent, _, _)) = nodes.get(e) else {
             break;
         };
@@ -344,7 +348,7 @@ fn body_above<'a>(
         _ => Transform::IDENTITY,
     };
     let mut e = parent;
-    for _ in 0..4096 {
+    for _ in 0..MAX_ANCESTORS {
         let Ok((transform, up, rigid, own)) = h.nodes.get(e) else {
             break;
         };

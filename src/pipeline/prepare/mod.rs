@@ -74,6 +74,7 @@ pub fn prepare_bodies(
     validate_settings(
         state,
         &settings.config,
+        &settings.narrow,
         &settings.gravity,
         &settings.sleep,
         &settings.unit,

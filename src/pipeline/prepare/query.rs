@@ -6,7 +6,8 @@ use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 
 use crate::collision::{
-    Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers, Sensor,
+    Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers,
+    NarrowPhaseConfig, Sensor,
 };
 use crate::dynamics::forces::{
     AccumulatedForces, AngularDamping, ConstantAngularAcceleration, ConstantForce,
@@ -117,6 +118,7 @@ type Disturbed = Or<(
 pub struct StepSettings<'w> {
     pub(super) time: Res<'w, Time>,
     pub(super) config: Res<'w, SolverConfig>,
+    pub(super) narrow: Res<'w, NarrowPhaseConfig>,
     pub(super) gravity: Res<'w, Gravity>,
     pub(super) sleep: Res<'w, SleepConfig>,
     pub(super) unit: Res<'w, PhysicsLengthUnit>,

@@ -13,6 +13,7 @@ use crate::dynamics::validation::body_label;
 use super::super::PhysicsState;
 use super::hierarchy::parts_in;
 use super::query::BodyDataItem;
+use super::validation::MIN_ROTATION_LENGTH_SQUARED;
 
 /// A collider on a descendant of a body, as [`resolve_hierarchy`](super::resolve_hierarchy)
 /// found it: the input of a body's built shape.
@@ -123,7 +124,10 @@ fn check_parts(children: &[(Entity, ChildPart)]) -> Result<(), String> {
         }
         check_scale(&format!("{} has scale", label()), part.relative.scale)?;
         let norm = part.relative.rotation.length_squared();
-        if !(part.relative.translation.is_finite() && norm.is_finite() && norm >= 1e-12) {
+        if !(part.relative.translation.is_finite()
+            && norm.is_finite()
+            && norm >= MIN_ROTATION_LENGTH_SQUARED)
+        {
             return Err(format!(
                 "{}: its pose relative to the body ({:?}) is not finite",
                 label(),

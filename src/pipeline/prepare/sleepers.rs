@@ -82,7 +82,7 @@ pub(super) fn sleepers_to_read(
     read.dedup();
     state
         .sleepers
-        .set_margin(state.settings.config.contact_margin);
+        .set_margin(state.settings.narrow.contact_margin);
     read
 }
 

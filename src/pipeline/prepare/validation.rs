@@ -11,6 +11,11 @@ use crate::dynamics::{ComputedMass, Density, RigidBody};
 use super::query::BodyDataItem;
 use super::scale::BuiltBody;
 
+/// Smallest squared length of a rotation quaternion accepted as a rotation (a length of
+/// 1e-6): a shorter one is too close to zero to say which rotation it stands for once
+/// normalised.
+pub(super) const MIN_ROTATION_LENGTH_SQUARED: f32 = 1e-12;
+
 /// Checks one body's input (at its world pose `t`) and refreshes its mass properties when
 /// their inputs changed. `geometry`, for a body whose shape is built (child colliders or a
 /// scale; already checked by [`build_body`](super::scale::build_body)), is that and whether it
@@ -35,7 +40,7 @@ pub(super) fn validate(
         ));
     }
     let norm = t.rotation.length_squared();
-    if !(norm.is_finite() && norm >= 1e-12) {
+    if !(norm.is_finite() && norm >= MIN_ROTATION_LENGTH_SQUARED) {
         return Err(format!(
             "invalid rotation {} (a quaternion of finite, non-zero length is needed)",
             t.rotation
