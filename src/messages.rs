@@ -38,10 +38,10 @@ pub struct CollisionStarted(pub Entity, pub Entity);
 pub struct CollisionEnded(pub Entity, pub Entity);
 
 /// Two colliders started touching in the last step (avian3d 0.7's event). Written as a message
-/// for each pair of which either body has
-/// [`CollisionEventsEnabled`](crate::collision::CollisionEventsEnabled) (`collider1 <
-/// collider2`), and triggered as an entity event on each body of the pair that has it, with
-/// that body as `collider1`, so an observer on either body hears of it:
+/// for each pair of colliders of which either collider, or its body, has
+/// [`CollisionEventsEnabled`](crate::collision::CollisionEventsEnabled) (`body1 < body2`), and
+/// triggered as an entity event on each collider of the pair that has it (on itself or on its
+/// body), with that collider as `collider1`, so an observer on either collider hears of it:
 ///
 /// ```
 /// use bevy::prelude::*;
@@ -58,10 +58,12 @@ pub struct CollisionEnded(pub Entity, pub Entity);
 ///
 /// Pairs of every kind are reported, sensors and kinematic or static bodies included (see
 /// [`crate::collision::sensor`]). A body's colliders, its own and those on its descendants
-/// (see [`ColliderOf`](crate::collision::ColliderOf)), are one compound shape in the step, so
-/// events name the body: `collider1` is the body's entity and `body1 == Some(collider1)`, and
-/// likewise for `collider2` (avian3d names the child collider in `collider1`; here the step
-/// cannot tell which part touched).
+/// (see [`ColliderOf`](crate::collision::ColliderOf)), are one compound shape in the step, but
+/// each contact knows which of them it is on: events name the collider (the child's entity
+/// for a child collider, the body's for its own) in `collider1` and its body in `body1`, as
+/// avian3d does, and likewise for `collider2` and `body2`. Each pair of colliders starts and
+/// ends on its own. A collider that is not part of a body is its own body
+/// (`body1 == Some(collider1)`).
 #[derive(EntityEvent, Message, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CollisionStart {
     /// The collider that started touching `collider2`; the event's target when observed.
@@ -69,9 +71,9 @@ pub struct CollisionStart {
     pub collider1: Entity,
     /// The other collider.
     pub collider2: Entity,
-    /// The body of `collider1` (itself: colliders are reported as their body).
+    /// The body of `collider1` (itself for a body's own collider or a collider without a body).
     pub body1: Option<Entity>,
-    /// The body of `collider2` (itself: colliders are reported as their body).
+    /// The body of `collider2` (itself for a body's own collider or a collider without a body).
     pub body2: Option<Entity>,
 }
 
@@ -85,9 +87,9 @@ pub struct CollisionEnd {
     pub collider1: Entity,
     /// The other collider.
     pub collider2: Entity,
-    /// The body of `collider1` (itself: colliders are reported as their body).
+    /// The body of `collider1` (itself for a body's own collider or a collider without a body).
     pub body1: Option<Entity>,
-    /// The body of `collider2` (itself: colliders are reported as their body).
+    /// The body of `collider2` (itself for a body's own collider or a collider without a body).
     pub body2: Option<Entity>,
 }
 

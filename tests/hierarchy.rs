@@ -608,11 +608,11 @@ fn colliders_without_a_body_above_them_are_static_at_their_world_pose() {
     );
 }
 
-/// Collision events of a compound body are its body's: a body with `CollisionEventsEnabled`
-/// whose only collider is on a child lands on the ground, and `CollisionStart` names the body
-/// as both `collider1` and `body1`.
+/// Collision events of a compound body name the collider and its body, as avian3d's do: a
+/// body with `CollisionEventsEnabled` whose only collider is on a child lands on the ground,
+/// and `CollisionStart` names the child as `collider1` and the body as `body1`.
 #[test]
-fn collision_start_of_a_child_collider_names_its_body() {
+fn collision_start_of_a_child_collider_names_it_and_its_body() {
     let mut app = headless_app(60.0);
     let ground = scenes::ground(app.world_mut());
     let body = app
@@ -622,7 +622,14 @@ fn collision_start_of_a_child_collider_names_its_body() {
             CollisionEventsEnabled,
             Transform::from_xyz(0.0, 1.0, 0.0),
         ))
-        .with_child((Collider::sphere(0.25), Transform::from_xyz(0.0, -0.5, 0.0)))
+        .id();
+    let child = app
+        .world_mut()
+        .spawn((
+            Collider::sphere(0.25),
+            Transform::from_xyz(0.0, -0.5, 0.0),
+            ChildOf(body),
+        ))
         .id();
     let mut cursor = bevy::ecs::message::MessageCursor::<CollisionStart>::default();
     let mut starts = Vec::new();
@@ -632,11 +639,368 @@ fn collision_start_of_a_child_collider_names_its_body() {
     }
     assert_eq!(starts.len(), 1, "{starts:?}");
     let s = starts[0];
-    let (mine, other) = if s.collider1 == body {
+    let (mine, other) = if s.collider1 == child {
         ((s.collider1, s.body1), (s.collider2, s.body2))
     } else {
         ((s.collider2, s.body2), (s.collider1, s.body1))
     };
-    assert_eq!(mine, (body, Some(body)));
+    assert_eq!(mine, (child, Some(body)));
     assert_eq!(other, (ground, Some(ground)));
+}
+
+/// Spawns a dynamic body at `at` with `children`: each a box of half extent `h` at its offset,
+/// with the components of its bundle.
+fn body_with_children<B: Bundle>(
+    app: &mut App,
+    body: impl Bundle,
+    children: Vec<(Vec3, f32, B)>,
+) -> (Entity, Vec<Entity>) {
+    let body = app.world_mut().spawn(body).id();
+    let children = children
+        .into_iter()
+        .map(|(at, h, extra)| {
+            app.world_mut()
+                .spawn((
+                    Collider::cuboid(h, h, h),
+                    Transform::from_translation(at),
+                    ChildOf(body),
+                    extra,
+                ))
+                .id()
+        })
+        .collect();
+    (body, children)
+}
+
+/// A child's own restitution is its contacts': a body (no collider, restitution or rotation of
+/// its own: `LockedAxes::ROTATION_LOCKED`, so that it moves as a particle and every point of a
+/// landing face meets the ground at the body's speed) with a bouncy child box (`Restitution(1)`)
+/// and a dead one (`Restitution(0)`), 0.3 m apart in height, is dropped twice: upright, so that
+/// the bouncy child lands first, and turned half a turn about z, so that the dead one does;
+/// the lowest child's bottom starts 0.5 m above the ground. The impulse formula for a particle
+/// of mass `m` landing at `v` on the ground (restitution `e`, the max of the two: the ground
+/// has 0) is `j = (1 + e) m v`, so it leaves at `e v`: the bouncy landing rebounds to the drop
+/// height (`e^2 h = 0.5` m), the dead one stops on the ground (its bottom within 1 mm of it,
+/// never rising).
+#[test]
+fn child_restitution_is_its_own_contacts() {
+    let mut app = headless_app(60.0);
+    scenes::ground(app.world_mut());
+    let h = 0.2;
+    let spawn = |app: &mut App, x: f32, y: f32, turned: bool| {
+        let rotation = if turned {
+            Quat::from_rotation_z(PI)
+        } else {
+            Quat::IDENTITY
+        };
+        body_with_children(
+            app,
+            (
+                RigidBody::Dynamic,
+                LockedAxes::ROTATION_LOCKED,
+                Transform::from_xyz(x, y, 0.0).with_rotation(rotation),
+            ),
+            vec![
+                (Vec3::new(-0.5, -0.3, 0.0), h, Restitution(1.0)),
+                (Vec3::new(0.5, 0.0, 0.0), h, Restitution(0.0)),
+            ],
+        )
+        .0
+    };
+    // Upright: the bouncy child's bottom at y - 0.5; turned: the dead child's at y - 0.2.
+    let bouncy_first = spawn(&mut app, 0.0, 1.0, false);
+    let dead_first = spawn(&mut app, 5.0, 0.7, true);
+    let bottom = |app: &App, body: Entity, below: f32| position(app, body).y - below;
+    let (mut apex, mut dead_max, mut landed) = (0.0f32, f32::MIN, false);
+    for step in 0..72 {
+        run_steps(&mut app, 1);
+        let b = bottom(&app, bouncy_first, 0.5);
+        // Past the first landing (0.32 s, step 19) and before the second (0.96 s).
+        if step > 25 {
+            apex = apex.max(b);
+        }
+        let d = bottom(&app, dead_first, 0.2);
+        if landed {
+            dead_max = dead_max.max(d);
+        }
+        landed |= d < 0.01;
+    }
+    println!("bouncy apex {apex}, dead after landing: max {dead_max}");
+    // 1 cm: the integration error of a bouncing ball's apex is under 3 mm
+    // (`bouncing_ball_apexes_match_case_3`; bad_input.rs uses the same bound).
+    assert!((apex - 0.5).abs() < 0.01, "bouncy child rebounds to {apex}");
+    // 1 mm: the soft contact's sink (0.28 mm) and no rebound at all.
+    let rest = bottom(&app, dead_first, 0.2);
+    assert!(rest.abs() < 1e-3, "dead child rests at {rest}");
+    assert!(
+        dead_max < 1e-3,
+        "dead child rose to {dead_max} after landing"
+    );
+    assert!(velocity(&app, dead_first).length() < 0.01);
+}
+
+/// A child's `Sensor` is its own: a body with a wide solid child (a slab of half extents
+/// (1.5, 0.2, 0.5) centred 1 m along x) and a sensor child (a 0.4 m cube at (3.5, 0.5, 0), off
+/// the slab's end, with `CollisionEventsEnabled`), dropped from y = 1.5: the sensor passes
+/// through a static slab under it (top at y = 1.1, bottom at 1.0, beside the solid child's
+/// path) without slowing the body, and the body comes to rest on its solid child at y = 0.2.
+/// The sensor reports one start and one end with the slab, naming itself and its body. Free
+/// fall from rest: the sensor's bottom (1.8 m) meets the slab's top after
+/// `sqrt(2 * 0.7 / g)` = 0.378 s, its top (2.2 m) leaves the slab's bottom after
+/// `sqrt(2 * 1.2 / g)` = 0.495 s, and the solid child lands after `sqrt(2 * 1.3 / g)` =
+/// 0.515 s.
+#[test]
+fn sensor_child_passes_through_while_its_body_rests() {
+    let mut app = headless_app(60.0);
+    scenes::ground(app.world_mut());
+    let slab = spawn_static(
+        app.world_mut(),
+        Collider::cuboid(0.3, 0.05, 0.3),
+        Transform::from_xyz(3.5, 1.05, 0.0),
+    );
+    let body = app
+        .world_mut()
+        .spawn((RigidBody::Dynamic, Transform::from_xyz(0.0, 1.5, 0.0)))
+        .id();
+    app.world_mut().spawn((
+        Collider::cuboid(1.5, 0.2, 0.5),
+        Transform::from_xyz(1.0, 0.0, 0.0),
+        ChildOf(body),
+    ));
+    let sensor = app
+        .world_mut()
+        .spawn((
+            Collider::cuboid(0.2, 0.2, 0.2),
+            Transform::from_xyz(3.5, 0.5, 0.0),
+            Sensor,
+            CollisionEventsEnabled,
+            ChildOf(body),
+        ))
+        .id();
+    let mut starts = bevy::ecs::message::MessageCursor::<CollisionStart>::default();
+    let mut ends = bevy::ecs::message::MessageCursor::<CollisionEnd>::default();
+    let (mut started, mut ended) = (Vec::new(), Vec::new());
+    let mut speed_through = Vec::new();
+    for step in 1..=120u32 {
+        run_steps(&mut app, 1);
+        started.extend(drain(&mut app, &mut starts).into_iter().map(|s| (step, s)));
+        ended.extend(drain(&mut app, &mut ends).into_iter().map(|e| (step, e)));
+        // While the sensor is inside the slab (0.38 s to 0.49 s), the body falls freely.
+        if (24..=29).contains(&step) {
+            speed_through.push((step, velocity(&app, body).y));
+        }
+    }
+    println!("starts {started:?}\nends {ended:?}\nspeeds {speed_through:?}");
+    let with_slab = |(_, s): &&(u32, CollisionStart)| s.collider1 == slab || s.collider2 == slab;
+    let starts: Vec<_> = started.iter().filter(with_slab).collect();
+    assert_eq!(starts.len(), 1, "{started:?}");
+    let ends: Vec<_> = ended
+        .iter()
+        .filter(|(_, e)| e.collider1 == slab || e.collider2 == slab)
+        .collect();
+    assert_eq!(ends.len(), 1, "{ended:?}");
+    let (start_step, s) = *starts[0];
+    let (end_step, e) = *ends[0];
+    let named = |c1: Entity, c2: Entity, b1: Option<Entity>, b2: Option<Entity>| {
+        if c1 == sensor {
+            (c1, b1, c2, b2)
+        } else {
+            (c2, b2, c1, b1)
+        }
+    };
+    let expected = (sensor, Some(body), slab, Some(slab));
+    assert_eq!(named(s.collider1, s.collider2, s.body1, s.body2), expected);
+    assert_eq!(named(e.collider1, e.collider2, e.body1, e.body2), expected);
+    // The steps of the free-fall times above (0.378 s: step 22.7; 0.495 s: step 29.7), plus
+    // one (touching is read at the poses the step starts from, so a crossing in one step is
+    // seen in the next), within one step (the poses are sampled once a step; the touching
+    // distance is 5 mm).
+    let step_of = |t: f32| t * 60.0 + 1.0;
+    assert!(
+        (start_step as f32 - step_of(0.378)).abs() <= 1.0,
+        "start at step {start_step}"
+    );
+    assert!(
+        (end_step as f32 - step_of(0.495)).abs() <= 1.0,
+        "end at step {end_step}"
+    );
+    // Falling freely through the slab: each step gains g dt = 0.1635 m/s, within 1 mm/s
+    // (the f32 velocity, and no contact impulse at all).
+    for w in speed_through.windows(2) {
+        let gained = w[0].1 - w[1].1;
+        assert!((gained - 9.81 / 60.0).abs() < 1e-3, "{speed_through:?}");
+    }
+    // At rest on the solid child, 1 mm: the soft contact's sink.
+    let y = position(&app, body).y;
+    assert!((y - 0.2).abs() < 1e-3, "body rests at {y}, expected 0.2");
+    assert!(velocity(&app, body).length() < 0.01);
+}
+
+/// A child's `CollisionLayers` are its own: with the ground on layer 1 (`LayerMask(1)`) and a
+/// child on layer 2 interacting only with layer 2, a body whose only collider is that child
+/// falls through the ground as in free fall (`y = y0 - g t^2 / 2`, the body's whole path past
+/// the ground: nothing touched it); and a body with that child 1 m below a plain child sinks
+/// the first into the ground and rests on the second, at its height (0.2 m).
+#[test]
+fn child_layers_are_its_own_contacts() {
+    let mut app = headless_app(60.0);
+    let ground = scenes::ground(app.world_mut());
+    app.world_mut()
+        .entity_mut(ground)
+        .insert(CollisionLayers::new(LayerMask(1), LayerMask::ALL));
+    let apart = || CollisionLayers::new(LayerMask(2), LayerMask(2));
+    let (alone, _) = body_with_children(
+        &mut app,
+        (RigidBody::Dynamic, Transform::from_xyz(0.0, 1.0, 0.0)),
+        vec![(Vec3::ZERO, 0.2, apart())],
+    );
+    let body = app
+        .world_mut()
+        .spawn((RigidBody::Dynamic, Transform::from_xyz(5.0, 1.5, 0.0)))
+        .id();
+    app.world_mut().spawn((
+        Collider::cuboid(0.2, 0.2, 0.2),
+        Transform::from_xyz(0.0, -1.0, 0.0),
+        apart(),
+        ChildOf(body),
+    ));
+    app.world_mut()
+        .spawn((Collider::cuboid(0.2, 0.2, 0.2), ChildOf(body)));
+    let steps = 60;
+    run_steps(&mut app, steps);
+    // Free fall for t = 1 s: y = y0 - g t^2 / 2 = -3.905 m, v = -g t, worked out here in f64,
+    // within 1 mm and 1 mm/s (f32 rounding over 60 steps; the step integrates constant gravity
+    // exactly).
+    let (g, t) = (9.81f64, steps as f64 / 60.0);
+    let y = position(&app, alone).y as f64;
+    let expected = 1.0 - g * t * t / 2.0;
+    assert!(
+        (y - expected).abs() < 1e-3,
+        "alone at {y}, expected {expected}"
+    );
+    let v = velocity(&app, alone).y as f64;
+    assert!((v + g * t).abs() < 1e-3, "alone falls at {v}");
+    // At rest on the plain child, 1 mm: the soft contact's sink.
+    let y = position(&app, body).y;
+    assert!((y - 0.2).abs() < 1e-3, "body rests at {y}, expected 0.2");
+    assert!(velocity(&app, body).length() < 0.01);
+    assert!(rotation(&app, body).angle_between(Quat::IDENTITY) < 1e-3);
+}
+
+/// Collision events name the child collider: a body (no collider of its own) on two child
+/// boxes, one of them (`a`) with `CollisionEventsEnabled`, lands flat on the ground, is thrown
+/// up and lands again. Each landing starts, and the throw ends, exactly one contact of `a`
+/// with the ground, named as `(a, body)` against `(ground, ground)`, both as messages and to an
+/// observer on `a`, which hears it as `collider1`; the other child, without the component,
+/// has no events (an observer on it hears nothing), though it lands at the same step.
+#[test]
+fn events_name_the_child_collider_and_reach_its_observer() {
+    #[derive(Resource, Default)]
+    struct Heard(Vec<(Entity, String, Entity, Option<Entity>, Entity)>);
+    let mut app = headless_app(60.0);
+    app.init_resource::<Heard>();
+    let ground = scenes::ground(app.world_mut());
+    let body = app
+        .world_mut()
+        .spawn((RigidBody::Dynamic, Transform::from_xyz(0.0, 0.5, 0.0)))
+        .id();
+    let mut leg = |x: f32, events: bool| {
+        let mut e = app.world_mut().spawn((
+            Collider::cuboid(0.2, 0.2, 0.2),
+            Transform::from_xyz(x, 0.0, 0.0),
+            ChildOf(body),
+        ));
+        if events {
+            e.insert(CollisionEventsEnabled);
+        }
+        let id = e.id();
+        e.observe(move |s: On<CollisionStart>, mut heard: ResMut<Heard>| {
+            heard
+                .0
+                .push((id, "start".into(), s.collider1, s.body1, s.collider2));
+        })
+        .observe(move |s: On<CollisionEnd>, mut heard: ResMut<Heard>| {
+            heard
+                .0
+                .push((id, "end".into(), s.collider1, s.body1, s.collider2));
+        });
+        id
+    };
+    let a = leg(-0.5, true);
+    let b = leg(0.5, false);
+    let mut starts = bevy::ecs::message::MessageCursor::<CollisionStart>::default();
+    let mut ends = bevy::ecs::message::MessageCursor::<CollisionEnd>::default();
+    let mut run = |app: &mut App, steps: u32| {
+        let (mut started, mut ended) = (Vec::new(), Vec::new());
+        for _ in 0..steps {
+            run_steps(app, 1);
+            started.extend(drain(app, &mut starts));
+            ended.extend(drain(app, &mut ends));
+        }
+        (started, ended)
+    };
+    // Lands (0.3 m: 0.25 s) and settles.
+    let (landed, none) = run(&mut app, 60);
+    assert!(none.is_empty(), "{none:?}");
+    // Thrown up at 2 m/s: 0.41 s in the air.
+    app.world_mut()
+        .entity_mut(body)
+        .insert(LinearVelocity(Vec3::new(0.0, 2.0, 0.0)));
+    let (relanded, thrown) = run(&mut app, 60);
+    let named = |c1: Entity, b1: Option<Entity>, c2: Entity, b2: Option<Entity>| {
+        if c1 == a {
+            ((c1, b1), (c2, b2))
+        } else {
+            ((c2, b2), (c1, b1))
+        }
+    };
+    let expected = ((a, Some(body)), (ground, Some(ground)));
+    for starts in [&landed, &relanded] {
+        assert_eq!(starts.len(), 1, "{starts:?}");
+        let s = starts[0];
+        assert_eq!(named(s.collider1, s.body1, s.collider2, s.body2), expected);
+    }
+    assert_eq!(thrown.len(), 1, "{thrown:?}");
+    let e = thrown[0];
+    assert_eq!(named(e.collider1, e.body1, e.collider2, e.body2), expected);
+    let heard = &app.world().resource::<Heard>().0;
+    let kinds: Vec<&str> = heard.iter().map(|h| h.1.as_str()).collect();
+    assert_eq!(kinds, ["start", "end", "start"], "{heard:?}");
+    for (on, _, collider1, body1, collider2) in heard {
+        assert_eq!(
+            (*on, *collider1, *body1, *collider2),
+            (a, a, Some(body), ground)
+        );
+    }
+    assert!(heard.iter().all(|h| h.0 != b));
+}
+
+/// A child collider's bad restitution follows the bodies' rule: NaN is replaced by 0 with one
+/// warning naming the child by its `Name`, and the body steps on (it lands and rests, 1 mm: the
+/// soft contact's sink), no panic.
+#[test]
+fn child_nan_restitution_is_clamped_with_one_warning() {
+    capture_logs();
+    let mut app = headless_app(60.0);
+    scenes::ground(app.world_mut());
+    let body = app
+        .world_mut()
+        .spawn((RigidBody::Dynamic, Transform::from_xyz(0.0, 1.0, 0.0)))
+        .id();
+    app.world_mut().spawn((
+        Name::new("bad leg"),
+        Collider::cuboid(0.2, 0.2, 0.2),
+        Restitution(f32::NAN),
+        ChildOf(body),
+    ));
+    run_steps(&mut app, 90);
+    let warnings: Vec<_> = take_logs()
+        .into_iter()
+        .filter(|(l, t)| *l == log::Level::Warn && t.contains("bad leg"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0].1.contains("clamped to 0"), "{warnings:?}");
+    let y = position(&app, body).y;
+    assert!((y - 0.2).abs() < 1e-3, "rests at {y}");
+    assert!(velocity(&app, body).length() < 0.01);
 }

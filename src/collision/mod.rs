@@ -5,6 +5,7 @@ pub mod collider;
 pub mod constructor;
 pub mod layers;
 pub mod narrow_phase;
+pub mod parts;
 pub mod sensor;
 
 pub use broad_phase::BroadPhaseTree;

@@ -41,11 +41,12 @@ pub struct Reporters<'w, 's> {
     colliding: Query<'w, 's, (Entity, &'static mut CollidingEntities)>,
 }
 
-/// Writes the step's `Impact`, `CollisionStarted` and `CollisionEnded` messages (every pair);
-/// `CollisionStart` and `CollisionEnd` messages for the pairs of which a body has
-/// [`CollisionEventsEnabled`], triggered as entity events on each such body (with it as
-/// `collider1`, the pair's bodies in entity order); and updates [`CollidingEntities`] (a newly
-/// inserted one is filled from the pairs touching now).
+/// Writes the step's `Impact`, `CollisionStarted` and `CollisionEnded` messages (every pair of
+/// bodies); `CollisionStart` and `CollisionEnd` messages for the pairs of colliders (see
+/// [`StepEvents::colliders_started`]) of which a collider or its body has
+/// [`CollisionEventsEnabled`], triggered as entity events on each such collider (with it as
+/// `collider1` and its body as `body1`, the pair's bodies in entity order); and updates
+/// [`CollidingEntities`] (a newly inserted one is filled from the pairs touching now).
 pub fn send_messages(
     mut commands: Commands,
     events: Res<StepEvents>,
@@ -61,43 +62,48 @@ pub fn send_messages(
         .ended
         .write_batch(events.ended.iter().map(|&(a, b)| CollisionEnded(a, b)));
     if !reporters.events.is_empty() {
-        let enabled = |e: Entity| reporters.events.contains(e);
-        for &(a, b) in &events.started {
-            let (on_a, on_b) = (enabled(a), enabled(b));
+        // A collider asks for events with `CollisionEventsEnabled` on itself or on its body.
+        let enabled = |c: Entity, b: Entity| {
+            reporters.events.contains(c) || (b != c && reporters.events.contains(b))
+        };
+        for p in &events.colliders_started {
+            let ((c1, c2), (b1, b2)) = (p.colliders, p.bodies);
+            let (on_a, on_b) = (enabled(c1, b1), enabled(c2, b2));
             if !(on_a || on_b) {
                 continue;
             }
-            let start = |c1: Entity, c2: Entity| CollisionStart {
+            let start = |c1: Entity, c2: Entity, b1: Entity, b2: Entity| CollisionStart {
                 collider1: c1,
                 collider2: c2,
-                body1: Some(c1),
-                body2: Some(c2),
+                body1: Some(b1),
+                body2: Some(b2),
             };
-            writers.start.write(start(a, b));
+            writers.start.write(start(c1, c2, b1, b2));
             if on_a {
-                commands.trigger(start(a, b));
+                commands.trigger(start(c1, c2, b1, b2));
             }
             if on_b {
-                commands.trigger(start(b, a));
+                commands.trigger(start(c2, c1, b2, b1));
             }
         }
-        for &(a, b) in &events.ended {
-            let (on_a, on_b) = (enabled(a), enabled(b));
+        for p in &events.colliders_ended {
+            let ((c1, c2), (b1, b2)) = (p.colliders, p.bodies);
+            let (on_a, on_b) = (enabled(c1, b1), enabled(c2, b2));
             if !(on_a || on_b) {
                 continue;
             }
-            let end = |c1: Entity, c2: Entity| CollisionEnd {
+            let end = |c1: Entity, c2: Entity, b1: Entity, b2: Entity| CollisionEnd {
                 collider1: c1,
                 collider2: c2,
-                body1: Some(c1),
-                body2: Some(c2),
+                body1: Some(b1),
+                body2: Some(b2),
             };
-            writers.end.write(end(a, b));
+            writers.end.write(end(c1, c2, b1, b2));
             if on_a {
-                commands.trigger(end(a, b));
+                commands.trigger(end(c1, c2, b1, b2));
             }
             if on_b {
-                commands.trigger(end(b, a));
+                commands.trigger(end(c2, c1, b2, b1));
             }
         }
     }

@@ -34,7 +34,7 @@ pub use sleep::{SleepPlugin, update_sleep};
 pub use solve::{SolvePlugin, solve_contacts};
 pub use write_back::{WriteBackPlugin, write_back};
 
-pub use outputs::{CandidatePairs, ContactRows, StepEvents};
+pub use outputs::{CandidatePairs, ColliderPair, ContactRows, StepEvents};
 use settings::{Settings, validate_settings};
 use wake::{bring_in_overlapped, mark_awake_active, wake_islands};
 
@@ -42,8 +42,11 @@ use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
+use std::sync::Arc;
+
 use crate::collision::layers::CollisionLayers;
 use crate::collision::narrow_phase::UnitShapes;
+use crate::collision::parts::{CompoundParts, PartMaterial};
 use crate::collision::sensor::Reporting;
 use crate::collision::{BroadPhaseTree, NarrowPhaseConfig};
 use crate::dynamics::CombineRules;
@@ -86,6 +89,10 @@ pub struct PhysicsState {
     layers: Vec<CollisionLayers>,
     /// What each body asks the step to report (sensor, events, colliding entities).
     reporting: Vec<Reporting>,
+    /// For each body with child colliders, its colliders as its contacts see them (material,
+    /// layers, sensor flag; see [`CompoundParts`]); `None` for any other body, whose contacts
+    /// take the body's own.
+    parts: Vec<Option<Arc<CompoundParts>>>,
     /// Scratch: the bodies that lost their `CollisionLayers` or `Sensor` since the last step,
     /// sorted (they are active: pairs they had been filtered from may start).
     layers_removed: Vec<Entity>,
@@ -207,6 +214,29 @@ impl PhysicsState {
     /// Whether each body's collider takes part in contacts (no `ColliderDisabled`).
     pub(crate) fn collides(&self) -> &[bool] {
         &self.collides
+    }
+
+    /// The colliders of each body with child colliders, in the order of
+    /// [`entities`](Self::entities) (`None` for any other body; see [`CompoundParts`]).
+    pub fn parts(&self) -> &[Option<Arc<CompoundParts>>] {
+        &self.parts
+    }
+
+    /// The collider of body `k` that its shape's subshape `subshape` belongs to: one of its
+    /// colliders for a body with child colliders, else the body itself with its material,
+    /// layers and sensor flag.
+    pub fn part_of(&self, k: usize, subshape: u32) -> PartMaterial {
+        match &self.parts[k] {
+            Some(parts) => *parts.of_subshape(subshape),
+            None => PartMaterial {
+                collider: self.entities[k],
+                restitution: self.restitution[k],
+                friction: self.friction[k],
+                combine: self.combine[k],
+                layers: self.layers[k],
+                sensor: self.reporting[k].sensor(),
+            },
+        }
     }
 
     /// Body `k` takes part in contacts: dynamic, or asleep (a sleeping body's pairs are kept, so

@@ -117,6 +117,12 @@ pub struct ContactRows {
     /// The detect-only candidate pairs found touching in the step, as indices of
     /// [`CandidatePairs::pairs`], ascending.
     pub(super) detected: Vec<u32>,
+    /// The colliders of compound pairs (see [`ContactPair::compound`]) found touching without
+    /// rows (a sensor among them, or the pair detect-only): `(pair, collider on a, collider on
+    /// b)`, by pair, ascending.
+    ///
+    /// [`ContactPair::compound`]: crate::collision::ContactPair::compound
+    pub(super) detected_parts: Vec<(u32, Entity, Entity)>,
 }
 
 impl ContactRows {
@@ -142,6 +148,33 @@ impl ContactRows {
     pub fn detected(&self) -> &[u32] {
         &self.detected
     }
+
+    /// The colliders of the pairs with child colliders found touching without rows (a
+    /// sensor among them, or the pair detect-only): `(candidate pair, collider on its first
+    /// body, collider on its second)`, ascending by pair.
+    pub fn detected_parts(&self) -> &[(u32, Entity, Entity)] {
+        &self.detected_parts
+    }
+}
+
+/// Two colliders whose touching started or ended, with their bodies: for a body without child
+/// colliders, its collider is itself.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ColliderPair {
+    /// The colliders `(on a, on b)`, where `(a, b)` are the bodies.
+    pub colliders: (Entity, Entity),
+    /// The bodies `(a, b)`, `a < b`.
+    pub bodies: (Entity, Entity),
+}
+
+impl ColliderPair {
+    /// A pair of bodies that are their own colliders.
+    pub fn of_bodies(a: Entity, b: Entity) -> Self {
+        ColliderPair {
+            colliders: (a, b),
+            bodies: (a, b),
+        }
+    }
 }
 
 /// What happened in the step, as the messages stage sends it.
@@ -150,6 +183,8 @@ pub struct StepEvents {
     pub(super) impacts: Vec<Impact>,
     pub(super) started: Vec<(Entity, Entity)>,
     pub(super) ended: Vec<(Entity, Entity)>,
+    pub(super) colliders_started: Vec<ColliderPair>,
+    pub(super) colliders_ended: Vec<ColliderPair>,
 }
 
 impl StepEvents {
@@ -167,5 +202,18 @@ impl StepEvents {
     /// Pairs that stopped touching in the step (or lost a body).
     pub fn ended(&self) -> &[(Entity, Entity)] {
         &self.ended
+    }
+
+    /// Pairs of colliders that started touching in the step: the pairs of
+    /// [`started`](Self::started) whose bodies have no child colliders, and the touching
+    /// colliders of those that have (a body's own collider is named by the body).
+    pub fn colliders_started(&self) -> &[ColliderPair] {
+        &self.colliders_started
+    }
+
+    /// Pairs of colliders that stopped touching in the step (or lost a body), as
+    /// [`colliders_started`](Self::colliders_started).
+    pub fn colliders_ended(&self) -> &[ColliderPair] {
+        &self.colliders_ended
     }
 }

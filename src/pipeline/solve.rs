@@ -5,16 +5,19 @@
 use bevy::prelude::*;
 use parry3d::math::Pose;
 use parry3d::query::cast_shapes_nonlinear;
-use parry3d::shape::{Ball, Shape};
+use parry3d::shape::{Ball, Shape, SharedShape};
 
 use crate::collision::ContactPairs;
 use crate::collision::narrow_phase::StepMotion;
+use crate::collision::parts::PartContact;
 use crate::dynamics::SolverStats;
 use crate::dynamics::solver::{self, Motion};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::narrow_phase::Turning;
-use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents, init_stage_state};
+use super::narrow_phase::{Turning, mixed};
+use super::{
+    CandidatePairs, ColliderPair, ContactRows, PhysicsState, StepEvents, init_stage_state,
+};
 
 /// Steps between two warnings that propagation hit its sweep bound: at most one a second at
 /// 60 Hz, so a scene that hits the bound every step does not flood the log.
@@ -161,6 +164,13 @@ fn first_touch(
     // the soft step. Such a pair is swept by the fast body's centre, as a pair touching at
     // the start.
     let carried = Turning::sides(state, ia, ib).is_some();
+    if mixed(state, ia) || mixed(state, ib) {
+        return if carried {
+            None
+        } else {
+            first_touch_of_parts(state, (ia, ib), (ma, mb), hit)
+        };
+    }
     match hit(ma, sa, mb, sb) {
         Some(t) if t > 0.0 && !carried => Some(t),
         Some(_) => {
@@ -180,6 +190,55 @@ fn first_touch(
         }
         None => None,
     }
+}
+
+/// For [`first_touch`], a pair with a body whose colliders pair differently (a sensor among
+/// them, or layers that differ): when the subshapes of colliders whose contacts are solved
+/// first touch, s, each pair of them swept on its own (`hit`, with the bodies' motions carried
+/// to the subshape's pose); those touching at the start (resting, or the solve's to resolve)
+/// do not count. A sensor or a collider that does not interact never stops the body.
+fn first_touch_of_parts(
+    state: &PhysicsState,
+    (ia, ib): (usize, usize),
+    (ma, mb): (&StepMotion, &StepMotion),
+    hit: impl Fn(&StepMotion, &dyn Shape, &StepMotion, &dyn Shape) -> Option<f32>,
+) -> Option<f32> {
+    let leaves = |k: usize, m: &StepMotion| -> Vec<(u32, StepMotion, SharedShape)> {
+        let shape = &state.shapes[k];
+        match shape.as_compound().filter(|_| state.parts[k].is_some()) {
+            Some(compound) => compound
+                .shapes()
+                .iter()
+                .enumerate()
+                .map(|(i, (pose, leaf))| {
+                    let motion = StepMotion {
+                        pose: m.pose * *pose,
+                        local_center: pose.inverse().transform_point(m.local_center),
+                        ..*m
+                    };
+                    (i as u32, motion, leaf.clone())
+                })
+                .collect(),
+            None => vec![(0, *m, shape.clone())],
+        }
+    };
+    let (leaves_a, leaves_b) = (leaves(ia, ma), leaves(ib, mb));
+    let mut first: Option<f32> = None;
+    for (la, motion_a, shape_a) in &leaves_a {
+        let part_a = state.part_of(ia, *la);
+        for (lb, motion_b, shape_b) in &leaves_b {
+            let part_b = state.part_of(ib, *lb);
+            if !matches!(part_a.contact(&part_b), PartContact::Solved { .. }) {
+                continue;
+            }
+            if let Some(t) = hit(motion_a, shape_a.as_ref(), motion_b, shape_b.as_ref())
+                && t > 0.0
+            {
+                first = Some(first.map_or(t, |f| f.min(t)));
+            }
+        }
+    }
+    first
 }
 
 /// Puts each body of `poses` back at its pose, keeping its energy from rising (see
@@ -217,6 +276,86 @@ fn put_back(state: &mut PhysicsState, poses: Vec<(usize, Pose)>) {
         }
         body.position = position;
         body.rotation = rotation;
+    }
+}
+
+/// The step's touching transitions between colliders (see [`StepEvents::colliders_started`]):
+/// a pair of bodies without child colliders is one pair of colliders, its bodies, and its
+/// transitions are the pair's (those of `events.started`, and of `events.ended` from
+/// `ended_before`, which [`ContactPairs::update_touching`] pushed); the colliders of a
+/// compound pair touch when a row of theirs is within the touch distance or pushed in the step,
+/// or when the narrow phase found them touching without rows (`rows.detected_parts`). A
+/// dormant pair keeps its touching colliders.
+fn update_colliders_touching(
+    state: &PhysicsState,
+    pairs: &mut ContactPairs,
+    candidates: &CandidatePairs,
+    rows: &ContactRows,
+    events: &mut StepEvents,
+    ended_before: usize,
+) {
+    let plain = |pairs: &ContactPairs, (a, b): (Entity, Entity)| {
+        pairs.get(a, b).is_none_or(|p| !p.compound)
+    };
+    for i in 0..events.started.len() {
+        let pair = events.started[i];
+        if plain(pairs, pair) {
+            events
+                .colliders_started
+                .push(ColliderPair::of_bodies(pair.0, pair.1));
+        }
+    }
+    for i in ended_before..events.ended.len() {
+        let pair = events.ended[i];
+        if plain(pairs, pair) {
+            events
+                .colliders_ended
+                .push(ColliderPair::of_bodies(pair.0, pair.1));
+        }
+    }
+    if !pairs.candidates().iter().any(|p| p.compound) {
+        return;
+    }
+    let touch = state.settings.narrow.touch_distance;
+    let mut now: Vec<(u32, Entity, Entity)> = rows.detected_parts.clone();
+    for (c, &(p, m, _)) in rows.contacts.iter().zip(&rows.keys) {
+        let pair = &pairs.candidates()[p as usize];
+        if pair.compound && (c.separation <= touch || c.total_impulse > 0.0) {
+            let (ia, ib) = candidates.indices[p as usize];
+            let manifold = &pair.manifolds[m as usize];
+            now.push((
+                p,
+                state.part_of(ia, manifold.subshape1).collider,
+                state.part_of(ib, manifold.subshape2).collider,
+            ));
+        }
+    }
+    now.sort_unstable();
+    now.dedup();
+    let mut next = 0;
+    for (p, pair) in pairs.pairs_mut().iter_mut().enumerate() {
+        let start = next;
+        while next < now.len() && now[next].0 as usize == p {
+            next += 1;
+        }
+        if !pair.compound || candidates.dormant[p] {
+            continue;
+        }
+        let touching: Vec<(Entity, Entity)> =
+            now[start..next].iter().map(|&(_, a, b)| (a, b)).collect();
+        let bodies = (pair.a, pair.b);
+        let event = |colliders| ColliderPair { colliders, bodies };
+        for was in &pair.part_touching {
+            if touching.binary_search(was).is_err() {
+                events.colliders_ended.push(event(*was));
+            }
+        }
+        for is in &touching {
+            if pair.part_touching.binary_search(is).is_err() {
+                events.colliders_started.push(event(*is));
+            }
+        }
+        pair.part_touching = touching;
     }
 }
 
@@ -270,6 +409,7 @@ pub fn solve_contacts(
     }
 
     pairs.store_impulses(&rows.contacts, &rows.keys);
+    let ended_before = events.ended.len();
     pairs.update_touching(
         &rows.contacts,
         &rows.keys,
@@ -279,6 +419,7 @@ pub fn solve_contacts(
         &mut events.started,
         &mut events.ended,
     );
+    update_colliders_touching(state, &mut pairs, &candidates, rows, events, ended_before);
     events.impacts.clear();
     events.impacts.extend(crate::messages::impacts(
         &pairs,

@@ -69,6 +69,7 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
     state.combine.push(s.combine);
     state.layers.push(s.layers);
     state.reporting.push(s.reporting);
+    state.parts.push(s.parts.clone());
     state.reach.push(0.0);
     state.spin_reach.push(0.0);
     state.aabbs.push(state.sleepers.aabb(i));

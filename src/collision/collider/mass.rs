@@ -48,6 +48,23 @@ pub fn body_shape(parts: &[BodyPart]) -> SharedShape {
     SharedShape::compound(shapes)
 }
 
+/// For each subshape of [`body_shape`]`(parts)`, the index of the part it comes from (a lone
+/// part at the body's origin is itself: each of its subshapes, if it is a compound, is that
+/// part's).
+pub fn body_leaves(parts: &[BodyPart]) -> Vec<u32> {
+    let leaves = |part: &BodyPart| part.shape.as_compound().map_or(1, |c| c.shapes().len());
+    if let [part] = parts
+        && part.pose == Pose::IDENTITY
+    {
+        return vec![0; leaves(part)];
+    }
+    let mut out = Vec::with_capacity(parts.len());
+    for (i, part) in parts.iter().enumerate() {
+        out.extend(std::iter::repeat_n(i as u32, leaves(part)));
+    }
+    out
+}
+
 /// Mass properties of one part at its density (or scaled to its own mass), in the body's frame.
 pub fn part_mass_properties(part: &BodyPart) -> MassProperties {
     let mut props = shape_mass_properties(part.shape.as_ref(), part.density);

@@ -11,7 +11,7 @@ mod mass;
 mod scale;
 
 use mass::shape_mass_properties;
-pub use mass::{BodyPart, body_shape, part_mass_properties};
+pub use mass::{BodyPart, body_leaves, body_shape, part_mass_properties};
 pub use scale::{Scaling, scaled_shape};
 
 /// Takes the collider out of contacts: the body still moves (gravity, forces, its velocity)

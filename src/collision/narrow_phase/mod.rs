@@ -48,6 +48,14 @@ pub struct ContactPair {
     /// dynamic body: contacts never solved; see
     /// [`CandidatePairs::detect_only`](crate::pipeline::CandidatePairs::detect_only)).
     pub detect_only: bool,
+    /// A body of the pair has child colliders (see
+    /// [`CompoundParts`](crate::collision::parts::CompoundParts)) in the last step it was a
+    /// candidate: its contacts are sorted out collider by collider, and `part_touching` holds
+    /// its touching colliders.
+    pub compound: bool,
+    /// For a `compound` pair, the pairs of colliders `(on a, on b)` that touched in the last
+    /// step, sorted: what collision events between colliders are reported from.
+    pub part_touching: Vec<(Entity, Entity)>,
     /// The length, m, of one unit of `manifolds`' points, distances and sub-shape poses: the
     /// length unit the pair's contacts were generated in (see [`ContactPair::update`]).
     unit: f32,
@@ -62,6 +70,8 @@ impl ContactPair {
             workspace: None,
             touching: false,
             detect_only: false,
+            compound: false,
+            part_touching: Vec::new(),
             unit: 1.0,
         }
     }

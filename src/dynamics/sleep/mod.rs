@@ -249,6 +249,9 @@ pub struct Sleeper {
     pub layers: CollisionLayers,
     /// What it asks the step to report.
     pub reporting: Reporting,
+    /// Its colliders, for a body with child colliders (see
+    /// [`CompoundParts`](crate::collision::parts::CompoundParts)).
+    pub parts: Option<std::sync::Arc<crate::collision::parts::CompoundParts>>,
     /// Bounding radius about the centre of mass, m.
     pub radius: f32,
     /// The forces, damping, speed caps and translation locks it has, if any (see

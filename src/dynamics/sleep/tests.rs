@@ -46,6 +46,7 @@ fn sleeping_set_finds_every_overlap() {
         combine: CombineRules::default(),
         layers: CollisionLayers::DEFAULT,
         reporting: Reporting::default(),
+        parts: None,
         radius: r,
     };
     let mut set = SleepingSet::default();

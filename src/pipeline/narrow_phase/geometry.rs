@@ -4,6 +4,7 @@
 use parry3d::shape::SharedShape;
 
 use super::super::{CandidatePairs, PhysicsState};
+use super::parts::{forget_sensor_points, mixed};
 use crate::collision::narrow_phase::{ContactPair, Meeting, StepMotion, time_of_impact};
 
 /// Turn in one step, rad, beyond which a body's contact is generated at the time-of-impact
@@ -44,6 +45,10 @@ pub(super) fn pair_geometry(
     pair.detect_only = candidates.detect_only[pair_index];
     if candidates.dormant[pair_index] {
         return Geometry::None;
+    }
+    pair.compound = state.parts[ia].is_some() || state.parts[ib].is_some();
+    if pair.compound {
+        forget_sensor_points(state, (ia, ib), pair);
     }
     let margin = narrow.contact_margin;
     let reach = state.reach[ia] + state.reach[ib];
@@ -100,7 +105,13 @@ pub(super) fn pair_geometry(
             margin,
         ) {
             Meeting::Miss => prediction = margin,
-            Meeting::At(t) if t > 0.0 && (turns_far(ia) || turns_far(ib)) => {
+            // (Not for a body whose colliders pair differently: its first meeting may be a
+            // sensor's, or a collider's that does not interact.)
+            Meeting::At(t)
+                if t > 0.0
+                    && (turns_far(ia) || turns_far(ib))
+                    && !(mixed(state, ia) || mixed(state, ib)) =>
+            {
                 let (motion_a, motion_b) = (motion(ia), motion(ib));
                 let (toi_a, toi_b) = (motion_a.pose_at(t), motion_b.pose_at(t));
                 if !pair.update(&toi_a, unit_a, &toi_b, unit_b, margin, pair_unit) {

@@ -8,19 +8,25 @@ use bevy::tasks::{ComputeTaskPool, ParallelSliceMut, TaskPool};
 use parry3d::shape::SharedShape;
 
 use crate::collision::narrow_phase::{ContactPair, StepMotion, UnitShapes, binary_unit};
+use crate::collision::parts::PartContact;
 use crate::collision::{ContactPairs, NarrowPhaseConfig};
 use crate::dynamics::CoefficientCombine;
 use crate::dynamics::solver::{ContactConstraint, Motion, SolverBody};
 use crate::schedule::{PhysicsSchedule, PhysicsSystems};
 
-use super::{CandidatePairs, ContactRows, PhysicsState, StepEvents, init_stage_state};
+use super::{
+    CandidatePairs, ColliderPair, ContactRows, PhysicsState, StepEvents, init_stage_state,
+};
 
 mod geometry;
 mod normals;
+mod parts;
 mod turning;
 
 use geometry::{Geometry, pair_geometry};
 pub use normals::{FACE_NORMAL_ANGLE, lighter_face_normal};
+pub(super) use parts::mixed;
+use parts::{ManifoldPart, ManifoldParts, manifold_parts};
 pub(super) use turning::Turning;
 
 /// Adds [`update_narrow_phase`] to [`PhysicsSystems::NarrowPhase`], and the narrow phase's
@@ -52,12 +58,15 @@ pub fn update_narrow_phase(
     let rows = &mut *rows;
     events.ended.clear();
     events.started.clear();
+    events.colliders_ended.clear();
+    events.colliders_started.clear();
     state.lost.clear();
     drop_ended_pairs(state, &mut pairs, &candidates, &mut events);
     rows.contacts.clear();
     rows.pair_ranges.clear();
     rows.keys.clear();
     rows.detected.clear();
+    rows.detected_parts.clear();
     let pressed = pressed_bodies(state, &candidates);
     // Contacts are generated with the shapes scaled to the length unit (see
     // `ContactPair::update`); a pair with a shape parry cannot scale keeps metres.
@@ -87,7 +96,16 @@ fn drop_ended_pairs(
     events: &mut StepEvents,
 ) {
     let (ended, lost) = (&mut events.ended, &mut state.lost);
+    let colliders_ended = &mut events.colliders_ended;
     pairs.retain_candidates(&candidates.pairs, |p| {
+        if p.compound {
+            colliders_ended.extend(p.part_touching.iter().map(|&colliders| ColliderPair {
+                colliders,
+                bodies: (p.a, p.b),
+            }));
+        } else if p.touching {
+            colliders_ended.push(ColliderPair::of_bodies(p.a, p.b));
+        }
         if p.touching {
             ended.push((p.a, p.b));
             // A sensor's touch held nothing up: losing it wakes no one.
@@ -181,6 +199,12 @@ fn all_pair_geometry(
 /// manifold pass found for it: none for a pair without contact or one only detected (recorded
 /// in `rows.detected` when touching); else a row per contact point, at the start poses or, for
 /// a fast-turning body, from the time-of-impact poses ([`impact_rows`]).
+///
+/// A pair with a body made of child colliders (`pair.compound`) is sorted out manifold by
+/// manifold, each on one collider of each body: its rows take that pair of colliders'
+/// restitution and friction, a manifold between colliders whose layers do not interact has
+/// none, and one on a sensor has none but counts for touching (in `rows.detected_parts`, and
+/// its pair in `rows.detected`).
 fn pair_rows(
     state: &PhysicsState,
     rows: &mut ContactRows,
@@ -190,9 +214,14 @@ fn pair_rows(
     (ia, ib): (usize, usize),
     geometry: Geometry,
 ) {
+    let parts = pair.compound.then(|| manifold_parts(state, (ia, ib), pair));
     let impact_time = match geometry {
         Geometry::None => return,
         Geometry::Detected(touching) => {
+            let touching = match &parts {
+                Some(parts) => detected_parts(state, rows, pair, pair_index, (ia, ib), parts),
+                None => touching,
+            };
             if touching {
                 rows.detected.push(pair_index as u32);
             }
@@ -219,13 +248,23 @@ fn pair_rows(
             (ia, ib),
             impact,
             (restitution, friction),
-            turning.as_ref(),
+            (turning.as_ref(), parts.as_deref()),
         );
         close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
         return;
     }
+    if let Some(parts) = &parts
+        && detected_parts(state, rows, pair, pair_index, (ia, ib), parts)
+    {
+        rows.detected.push(pair_index as u32);
+    }
     let mut face = None;
     for (m, k, point, normal, dist) in pair.world_points(pose_a, pose_b) {
+        let Some((restitution, friction)) =
+            part_material(parts.as_deref(), m, restitution, friction)
+        else {
+            continue;
+        };
         let normal = match face {
             Some((manifold, n)) if manifold == m => n,
             _ => {
@@ -255,7 +294,7 @@ fn impact_rows(
     (ia, ib): (usize, usize),
     (t, motion_a, motion_b): (f32, StepMotion, StepMotion),
     (restitution, friction): (f32, f32),
-    turning: Option<&Turning>,
+    (turning, parts): (Option<&Turning>, Option<&[ManifoldPart]>),
 ) {
     // A spinning body: the contact of its first point to meet the other is generated
     // at the time-of-impact poses (the start pose's normal and points would miss the
@@ -272,6 +311,9 @@ fn impact_rows(
     };
     let shift = carrier.linear * t;
     for (m, k, impact_point, normal, dist) in pair.world_points(&toi_a, &toi_b) {
+        let Some((restitution, friction)) = part_material(parts, m, restitution, friction) else {
+            continue;
+        };
         let point = impact_point - shift;
         let point_velocity = |body: &SolverBody| {
             body.linear_velocity + body.angular_velocity.cross(point - body.position)
@@ -296,6 +338,59 @@ fn impact_rows(
         }
         push_row(rows, pair, c, (pair_index, m, k));
     }
+}
+
+/// The restitution and friction of the rows of manifold `m`: the pair's (`restitution`,
+/// `friction`) for a pair without child colliders (`parts` is `None`), else those of the
+/// manifold's colliders; `None` when the manifold has no rows (a sensor's, or between colliders
+/// whose layers do not interact).
+fn part_material(
+    parts: Option<&[ManifoldPart]>,
+    m: usize,
+    restitution: f32,
+    friction: f32,
+) -> Option<(f32, f32)> {
+    match parts {
+        None => Some((restitution, friction)),
+        Some(parts) => match parts[m].0 {
+            PartContact::Solved {
+                restitution,
+                friction,
+            } => Some((restitution, friction)),
+            PartContact::Sensor | PartContact::Filtered => None,
+        },
+    }
+}
+
+/// Records in `rows.detected_parts` the colliders of compound pair `pair_index` that touch
+/// without rows: those of each manifold with a point within the touch distance that only
+/// detects (a sensor's, or any of a detect-only pair), none where the colliders' layers do not
+/// interact. Returns whether any touch.
+fn detected_parts(
+    state: &PhysicsState,
+    rows: &mut ContactRows,
+    pair: &ContactPair,
+    pair_index: usize,
+    (ia, ib): (usize, usize),
+    parts: &ManifoldParts,
+) -> bool {
+    let touch = state.settings.narrow.touch_distance;
+    let (pose_a, pose_b) = (&state.poses[ia], &state.poses[ib]);
+    let start = rows.detected_parts.len();
+    let mut last = None;
+    for (m, _, _, _, dist) in pair.world_points(pose_a, pose_b) {
+        let (contact, a, b) = parts[m];
+        let detects = match contact {
+            PartContact::Filtered => false,
+            PartContact::Sensor => true,
+            PartContact::Solved { .. } => pair.detect_only,
+        };
+        if detects && dist <= touch && last != Some(m) {
+            last = Some(m);
+            rows.detected_parts.push((pair_index as u32, a, b));
+        }
+    }
+    rows.detected_parts.len() > start
 }
 
 /// Fewest candidate pairs per task of the narrow phase's parallel manifold pass.

@@ -8,8 +8,11 @@ use parry3d::bounding_volume::{Aabb, BoundingVolume};
 use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
+use std::sync::Arc;
+
 use crate::collision::collider::is_unbounded_or_hollow;
 use crate::collision::narrow_phase::BOX_MARGIN_SHARE;
+use crate::collision::parts::{CompoundParts, PartMaterial};
 use crate::collision::sensor::Reporting;
 use crate::dynamics::forces::{AccumulatedForces, BodyMotion};
 use crate::dynamics::solver::{Motion, SolverBody};
@@ -88,6 +91,10 @@ pub(super) fn gather_body(
     let dt = state.settings.dt;
     let (body, local_com) = solver_body(item, kind, translation, rotation, extra.as_ref(), dt);
     let (shape, rebuilt) = step_shape(geometry, item);
+    let parts = match geometry {
+        Some((Some(built), _)) if has_parts => compound_parts(state, item, built),
+        _ => None,
+    };
     let radius = bounding_radius(&shape, local_com);
     // A sleeping body enters the step as static; it is swapped back in if woken.
     let (body, asleep) = enter_asleep(
@@ -111,6 +118,7 @@ pub(super) fn gather_body(
         active,
         motion: extra,
         asleep,
+        parts,
     };
     pack(state, item, packed)
 }
@@ -349,6 +357,64 @@ struct Packed {
     motion: Option<BodyMotion>,
     /// The island it sleeps with and the dynamic solver body it becomes if woken.
     asleep: Option<(Entity, SolverBody)>,
+    /// A body with child colliders: its colliders as its contacts see them, and whether a
+    /// child collider asks for reports.
+    parts: Option<(Arc<CompoundParts>, bool)>,
+}
+
+/// The colliders of a body with child colliders (`built`: its built shape) as its contacts
+/// see them (see [`CompoundParts`]): its own collider, if it has one, with the body's
+/// material, layers and sensor marker, then each enabled child collider with its own, the
+/// body's where it has none (a child of a sensor body is a sensor); and whether a child
+/// collider asks for reports.
+fn compound_parts(
+    state: &PhysicsState,
+    item: &BodyDataItem,
+    built: &BuiltBody,
+) -> Option<(Arc<CompoundParts>, bool)> {
+    let restitution = item.restitution.as_deref().map(|r| r.0);
+    let friction = item.friction.as_deref().map(|f| f.0);
+    let own = PartMaterial {
+        collider: item.entity,
+        restitution: clamp_coefficient(restitution, 1.0),
+        friction: clamp_coefficient(friction, f32::INFINITY),
+        combine: CombineRules {
+            restitution: item.restitution_combine.map(|c| c.0),
+            friction: item.friction_combine.map(|c| c.0),
+        },
+        layers: item.layers.as_deref().copied().unwrap_or_default(),
+        sensor: item.sensor.is_some(),
+    };
+    let mut parts = Vec::with_capacity(built.parts.len());
+    if item.collider.is_some() {
+        parts.push(own);
+    }
+    let mut reports = false;
+    for (_, child) in state.hierarchy.parts_of(item.entity) {
+        if child.disabled {
+            continue;
+        }
+        reports |= child.reports;
+        parts.push(PartMaterial {
+            collider: child.collider,
+            restitution: clamp_coefficient(child.restitution.or(restitution), 1.0),
+            friction: clamp_coefficient(child.friction.or(friction), f32::INFINITY),
+            combine: CombineRules {
+                restitution: child.combine.restitution.or(own.combine.restitution),
+                friction: child.combine.friction.or(own.combine.friction),
+            },
+            layers: child.layers.unwrap_or(own.layers),
+            sensor: child.sensor || own.sensor,
+        });
+    }
+    // The parts are those the shape was built from, in its order.
+    if parts.is_empty() || parts.len() != built.parts.len() {
+        return None;
+    }
+    Some((
+        Arc::new(CompoundParts::new(parts, built.leaves.clone())),
+        reports,
+    ))
 }
 
 /// Appends a body to the step's arrays, with the materials, layers and reports it asks for.
@@ -370,10 +436,27 @@ fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed) -> Gather
         restitution: item.restitution_combine.map(|c| c.0),
         friction: item.friction_combine.map(|c| c.0),
     });
-    state
-        .layers
-        .push(item.layers.as_deref().copied().unwrap_or_default());
-    state.reporting.push(reporting(item));
+    let (layers, mut reporting) = (
+        item.layers.as_deref().copied().unwrap_or_default(),
+        reporting(item),
+    );
+    match &packed.parts {
+        Some((parts, reports)) => {
+            // Paired as a whole when any two colliders may interact; a sensor only when all
+            // its colliders are (the narrow phase sorts out the rest, collider by collider).
+            state.layers.push(parts.layers());
+            reporting.0 &= !Reporting::SENSOR;
+            if parts.all_sensors() {
+                reporting.0 |= Reporting::SENSOR;
+            }
+            if *reports {
+                reporting.0 |= Reporting::EVENTS;
+            }
+        }
+        None => state.layers.push(layers),
+    }
+    state.reporting.push(reporting);
+    state.parts.push(packed.parts.map(|(p, _)| p));
     state.reach.push(packed.sweep.reach);
     state.spin_reach.push(packed.sweep.spin_reach);
     state.aabbs.push(packed.sweep.aabb);

@@ -6,12 +6,18 @@ use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 
 use crate::collision::collider::ColliderOf;
-use crate::collision::{Collider, ColliderDisabled};
+use crate::collision::{
+    Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers, Sensor,
+};
 use crate::dynamics::validation::body_label;
-use crate::dynamics::{Density, Mass, RigidBody, RigidBodyDisabled};
+use crate::dynamics::{
+    CombineRules, Density, Friction, FrictionCombine, Mass, Restitution, RestitutionCombine,
+    RigidBody, RigidBodyDisabled,
+};
 
 use super::super::PhysicsState;
 use super::scale::{BuiltBody, ChildPart, same_parts};
+use super::validation::warn_on_coefficient_change;
 
 /// Most ancestors walked up from one entity: Bevy's hierarchy has no cycles, so the bound only
 /// keeps a broken one from hanging the step.
@@ -54,6 +60,17 @@ impl HierarchyState {
     /// The colliders of `body` that sit on other entities.
     pub(super) fn parts_of(&self, body: Entity) -> &[(Entity, ChildPart)] {
         parts_in(&self.parts, body)
+    }
+
+    /// The body that collider `entity` is a part of in this step, if it is one.
+    pub(super) fn body_of(&self, entity: Entity) -> Option<Entity> {
+        if !self.is_attached(entity) {
+            return None;
+        }
+        self.parts
+            .iter()
+            .find(|(_, p)| p.collider == entity)
+            .map(|(b, _)| *b)
     }
 
     pub(super) fn has_parts(&self, body: Entity) -> bool {
@@ -200,14 +217,28 @@ type ParentedFilter = (
     Without<RigidBodyDisabled>,
 );
 
-/// What a child collider adds to its body: its density, mass, name, whether it is disabled, and
-/// the body it was marked a part of.
+/// What a child collider adds to its body: its density, mass, name, whether it is disabled, the
+/// body it was marked a part of, and what its contacts take from it ([`PartContacts`]).
 type PartInfo = (
     Option<&'static Density>,
     Option<&'static Mass>,
     Option<&'static Name>,
     Has<ColliderDisabled>,
     Option<&'static ColliderOf>,
+    PartContacts,
+);
+
+/// What a child collider's contacts take from it: its material and combine rules, layers,
+/// sensor marker, and whether it asks for reports.
+type PartContacts = (
+    Option<Ref<'static, Restitution>>,
+    Option<Ref<'static, Friction>>,
+    Option<&'static RestitutionCombine>,
+    Option<&'static FrictionCombine>,
+    Option<Ref<'static, CollisionLayers>>,
+    Option<Ref<'static, Sensor>>,
+    Has<CollisionEventsEnabled>,
+    Has<CollidingEntities>,
 );
 
 /// The item [`HierarchyData::nodes`] reads.
@@ -281,15 +312,35 @@ fn place_collider(
     collider: &Collider,
 ) {
     let (mut relative, body) = body_above(h, entity, parent);
-    let Ok((density, mass, name, disabled, marked)) = h.info.get(entity) else {
+    let Ok((density, mass, name, disabled, marked, contacts)) = h.info.get(entity) else {
         return;
     };
+    let (
+        restitution,
+        friction,
+        restitution_combine,
+        friction_combine,
+        layers,
+        sensor,
+        events,
+        colliding,
+    ) = contacts;
     let composable = |c: Option<&Collider>| c.is_none_or(|c| !c.is_unbounded_or_hollow());
     match body {
         Some((b, _, own)) if composable(Some(collider)) && composable(own) => {
             let scale = world_of(&h.nodes, b).0.scale;
             if scale != Vec3::ONE {
                 relative = Transform::from_scale(scale).mul_transform(relative);
+            }
+            // A bad coefficient is clamped, with a warning naming the collider, as a body's is.
+            let label = || format!("child collider {}", body_label(entity, name));
+            warn_on_coefficient_change(&label, restitution.as_ref(), "restitution", 1.0);
+            warn_on_coefficient_change(&label, friction.as_ref(), "friction", f32::INFINITY);
+            // New layers or a new sensor marker change the pairs its body may have.
+            if layers.as_ref().is_some_and(|l| l.is_changed())
+                || sensor.as_ref().is_some_and(|s| s.is_added())
+            {
+                hs.disturbed.push(b);
             }
             hs.parts.push((
                 b,
@@ -302,6 +353,15 @@ fn place_collider(
                     mass: mass.map(|m| m.0),
                     disabled,
                     name: name.cloned(),
+                    restitution: restitution.map(|r| r.0),
+                    friction: friction.map(|f| f.0),
+                    combine: CombineRules {
+                        restitution: restitution_combine.map(|c| c.0),
+                        friction: friction_combine.map(|c| c.0),
+                    },
+                    layers: layers.map(|l| *l),
+                    sensor: sensor.is_some(),
+                    reports: events || colliding,
                 },
             ));
             hs.attached.push(entity);

@@ -89,6 +89,13 @@ pub fn prepare_bodies(
     state.layers_removed.clear();
     state.layers_removed.extend(removals.layers.read());
     state.layers_removed.extend(removals.sensor.read());
+    // A child collider's layers or sensor marker are its body's pairs'.
+    let children: Vec<Entity> = state
+        .layers_removed
+        .iter()
+        .filter_map(|&e| state.hierarchy.body_of(e))
+        .collect();
+    state.layers_removed.extend(children);
     state.layers_removed.sort_unstable();
     state.layers_removed.dedup();
     for mut item in awake.iter_mut() {
@@ -131,6 +138,7 @@ fn begin_step(state: &mut PhysicsState) {
     state.combine.clear();
     state.layers.clear();
     state.reporting.clear();
+    state.parts.clear();
     state.reach.clear();
     state.spin_reach.clear();
     state.aabbs.clear();

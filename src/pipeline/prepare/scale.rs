@@ -6,9 +6,10 @@ use parry3d::math::Pose;
 use parry3d::shape::SharedShape;
 
 use crate::collision::Collider;
-use crate::collision::collider::{BodyPart, Scaling, body_shape, scaled_shape};
-use crate::dynamics::Density;
+use crate::collision::CollisionLayers;
+use crate::collision::collider::{BodyPart, Scaling, body_leaves, body_shape, scaled_shape};
 use crate::dynamics::validation::body_label;
+use crate::dynamics::{CombineRules, Density};
 
 use super::super::PhysicsState;
 use super::hierarchy::parts_in;
@@ -30,6 +31,17 @@ pub(super) struct ChildPart {
     pub(super) mass: Option<f32>,
     pub(super) disabled: bool,
     pub(super) name: Option<Name>,
+    /// Its own restitution and friction (as given; clamped when its contacts use them) and
+    /// combine rules: where it has none, its body's are used.
+    pub(super) restitution: Option<f32>,
+    pub(super) friction: Option<f32>,
+    pub(super) combine: CombineRules,
+    /// Its own collision layers (its body's without them).
+    pub(super) layers: Option<CollisionLayers>,
+    /// It has a `Sensor` (so does every part of a body that has one).
+    pub(super) sensor: bool,
+    /// It has `CollisionEventsEnabled` or `CollidingEntities`.
+    pub(super) reports: bool,
 }
 
 impl ChildPart {
@@ -71,6 +83,8 @@ pub(in crate::pipeline) struct BuiltBody {
     pub(super) parts: Vec<BodyPart>,
     /// The shape of the step: the lone scaled collider, or the compound of all.
     pub(super) shape: SharedShape,
+    /// For each subshape of `shape`, the index of its part in `parts` (see [`body_leaves`]).
+    pub(super) leaves: Vec<u32>,
     /// Visited in this step or still needed (see [`HierarchyState::prune`]).
     ///
     /// [`HierarchyState::prune`]: super::HierarchyState::prune
@@ -184,6 +198,7 @@ pub(super) fn build_body(
         body_shape(&parts)
     };
     let empty = parts.is_empty();
+    let leaves = body_leaves(&parts);
     hs.built.insert(
         entity,
         BuiltBody {
@@ -193,6 +208,7 @@ pub(super) fn build_body(
             children: children.iter().map(|(_, p)| p.clone()).collect(),
             parts,
             shape,
+            leaves,
             needed: true,
         },
     );

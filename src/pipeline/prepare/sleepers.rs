@@ -112,6 +112,7 @@ pub(super) fn gather_sleeper(
                     combine: state.combine[i],
                     layers: state.layers[i],
                     reporting: state.reporting[i],
+                    parts: state.parts[i].clone(),
                     radius: state.radius[i],
                     motion: state
                         .motion

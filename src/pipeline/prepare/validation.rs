@@ -124,7 +124,7 @@ pub(super) fn warn_on_coefficients(item: &BodyDataItem) {
 }
 
 /// Warns, naming the entity, when a coefficient is set outside `[0, max]` or to NaN.
-fn warn_on_coefficient_change<T: std::ops::Deref<Target = f32> + Component>(
+pub(super) fn warn_on_coefficient_change<T: std::ops::Deref<Target = f32> + Component>(
     label: &dyn Fn() -> String,
     value: Option<&Ref<T>>,
     what: &str,
