@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use crate::collision::collider::is_unbounded_or_hollow;
 use crate::collision::narrow_phase::BOX_MARGIN_SHARE;
-use crate::collision::parts::{CompoundParts, PartMaterial};
+use crate::collision::parts::CompoundParts;
 use crate::collision::sensor::Reporting;
 use crate::dynamics::forces::{AccumulatedForces, BodyMotion};
 use crate::dynamics::solver::{Motion, SolverBody};
@@ -22,6 +22,7 @@ use crate::dynamics::{CombineRules, Quarantined, RigidBody};
 use super::super::{PhysicsState, Settings};
 use super::hierarchy::sorted_contains;
 use super::motion::{body_motion, pushed_since};
+use super::parts::compound_parts;
 use super::query::BodyDataItem;
 use super::scale::{BuiltBody, build_body};
 use super::sleepers::enter_asleep;
@@ -360,61 +361,6 @@ struct Packed {
     /// A body with child colliders: its colliders as its contacts see them, and whether a
     /// child collider asks for reports.
     parts: Option<(Arc<CompoundParts>, bool)>,
-}
-
-/// The colliders of a body with child colliders (`built`: its built shape) as its contacts
-/// see them (see [`CompoundParts`]): its own collider, if it has one, with the body's
-/// material, layers and sensor marker, then each enabled child collider with its own, the
-/// body's where it has none (a child of a sensor body is a sensor); and whether a child
-/// collider asks for reports.
-fn compound_parts(
-    state: &PhysicsState,
-    item: &BodyDataItem,
-    built: &BuiltBody,
-) -> Option<(Arc<CompoundParts>, bool)> {
-    let restitution = item.restitution.as_deref().map(|r| r.0);
-    let friction = item.friction.as_deref().map(|f| f.0);
-    let own = PartMaterial {
-        collider: item.entity,
-        restitution: clamp_coefficient(restitution, 1.0),
-        friction: clamp_coefficient(friction, f32::INFINITY),
-        combine: CombineRules {
-            restitution: item.restitution_combine.map(|c| c.0),
-            friction: item.friction_combine.map(|c| c.0),
-        },
-        layers: item.layers.as_deref().copied().unwrap_or_default(),
-        sensor: item.sensor.is_some(),
-    };
-    let mut parts = Vec::with_capacity(built.parts.len());
-    if item.collider.is_some() {
-        parts.push(own);
-    }
-    let mut reports = false;
-    for (_, child) in state.hierarchy.parts_of(item.entity) {
-        if child.disabled {
-            continue;
-        }
-        reports |= child.reports;
-        parts.push(PartMaterial {
-            collider: child.collider,
-            restitution: clamp_coefficient(child.restitution.or(restitution), 1.0),
-            friction: clamp_coefficient(child.friction.or(friction), f32::INFINITY),
-            combine: CombineRules {
-                restitution: child.combine.restitution.or(own.combine.restitution),
-                friction: child.combine.friction.or(own.combine.friction),
-            },
-            layers: child.layers.unwrap_or(own.layers),
-            sensor: child.sensor || own.sensor,
-        });
-    }
-    // The parts are those the shape was built from, in its order.
-    if parts.is_empty() || parts.len() != built.parts.len() {
-        return None;
-    }
-    Some((
-        Arc::new(CompoundParts::new(parts, built.leaves.clone())),
-        reports,
-    ))
 }
 
 /// Appends a body to the step's arrays, with the materials, layers and reports it asks for.

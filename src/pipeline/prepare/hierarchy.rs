@@ -5,17 +5,13 @@ use bevy::ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 
+use crate::collision::Collider;
 use crate::collision::collider::ColliderOf;
-use crate::collision::{
-    Collider, ColliderDisabled, CollidingEntities, CollisionEventsEnabled, CollisionLayers, Sensor,
-};
 use crate::dynamics::validation::body_label;
-use crate::dynamics::{
-    CombineRules, Density, Friction, FrictionCombine, Mass, Restitution, RestitutionCombine,
-    RigidBody, RigidBodyDisabled,
-};
+use crate::dynamics::{CombineRules, RigidBody, RigidBodyDisabled};
 
 use super::super::PhysicsState;
+use super::parts::PartInfo;
 use super::scale::{BuiltBody, ChildPart, same_parts};
 use super::validation::warn_on_coefficient_change;
 
@@ -215,30 +211,6 @@ type ParentedEntity = (
 type ParentedFilter = (
     Or<(With<RigidBody>, With<Collider>)>,
     Without<RigidBodyDisabled>,
-);
-
-/// What a child collider adds to its body: its density, mass, name, whether it is disabled, the
-/// body it was marked a part of, and what its contacts take from it ([`PartContacts`]).
-type PartInfo = (
-    Option<&'static Density>,
-    Option<&'static Mass>,
-    Option<&'static Name>,
-    Has<ColliderDisabled>,
-    Option<&'static ColliderOf>,
-    PartContacts,
-);
-
-/// What a child collider's contacts take from it: its material and combine rules, layers,
-/// sensor marker, and whether it asks for reports.
-type PartContacts = (
-    Option<Ref<'static, Restitution>>,
-    Option<Ref<'static, Friction>>,
-    Option<&'static RestitutionCombine>,
-    Option<&'static FrictionCombine>,
-    Option<Ref<'static, CollisionLayers>>,
-    Option<Ref<'static, Sensor>>,
-    Has<CollisionEventsEnabled>,
-    Has<CollidingEntities>,
 );
 
 /// The item [`HierarchyData::nodes`] reads.

@@ -17,6 +17,7 @@
 mod bodies;
 mod hierarchy;
 mod motion;
+mod parts;
 mod query;
 mod scale;
 mod sleepers;
