@@ -7,8 +7,6 @@
 //! cargo run --release --example hash_probe
 //! ```
 
-use std::hash::{Hash, Hasher};
-
 use bevy::prelude::*;
 use impact3d::prelude::*;
 use impact3d::scenes::{self, Pour, PourBodies};
@@ -36,19 +34,7 @@ fn pour_hash(method: SolverMethod, friction: f32) -> u64 {
         &Pour::walled_box(300, PourBodies::Mixed, 1.0, friction),
     );
     scenes::run_steps(&mut app, 200);
-    let mut hasher = std::collections::hash_map::DefaultHasher::new();
-    for &e in &spawned.bodies {
-        let t = app.world().get::<Transform>(e).unwrap();
-        for x in t
-            .translation
-            .to_array()
-            .into_iter()
-            .chain(t.rotation.to_array())
-        {
-            x.to_bits().hash(&mut hasher);
-        }
-    }
-    hasher.finish()
+    scenes::pose_hash(app.world(), &spawned.bodies)
 }
 
 fn main() {

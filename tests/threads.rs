@@ -8,7 +8,6 @@
 
 mod common;
 
-use std::hash::{Hash, Hasher};
 use std::process::Command;
 
 use bevy::app::{TaskPoolOptions, TaskPoolPlugin};
@@ -28,19 +27,7 @@ fn pour_hash(threads: usize) -> u64 {
         PhysicsPlugins::default(),
     ));
     scenes::run_steps(&mut app, 120);
-    let mut hasher = std::collections::hash_map::DefaultHasher::new();
-    for &e in &bodies {
-        let t = app.world().get::<Transform>(e).unwrap();
-        for x in t
-            .translation
-            .to_array()
-            .into_iter()
-            .chain(t.rotation.to_array())
-        {
-            x.to_bits().hash(&mut hasher);
-        }
-    }
-    hasher.finish()
+    scenes::pose_hash(app.world(), &bodies)
 }
 
 /// The child process's part: with `IMPACT3D_THREADS=n`, prints `HASH <hash>` of the pour on

@@ -69,6 +69,25 @@ pub fn run_steps(app: &mut App, steps: u32) {
     }
 }
 
+/// A hash of the bits of every translation and rotation of `bodies` (in that order): two runs
+/// agree bit for bit when their hashes do (the determinism tests and `examples/hash_probe.rs`).
+/// A body without a `Transform` is skipped.
+pub fn pose_hash(world: &World, bodies: &[Entity]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    for t in bodies.iter().filter_map(|&e| world.get::<Transform>(e)) {
+        for x in t
+            .translation
+            .to_array()
+            .into_iter()
+            .chain(t.rotation.to_array())
+        {
+            x.to_bits().hash(&mut hasher);
+        }
+    }
+    hasher.finish()
+}
+
 /// A dynamic sphere of `radius` m and `mass` kg at `position` moving at `velocity`.
 pub fn ball(radius: f32, mass: f32, position: Vec3, velocity: Vec3) -> impl Bundle {
     (

@@ -4,6 +4,33 @@ use super::*;
 
 const BAD: [f32; 5] = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0, 1e30];
 
+/// A named float field of a config and how to set it.
+type Field<C> = (&'static str, fn(&mut C, f32));
+
+/// Sets each of `fields` of `last` to each bad value in turn and checks that `validated`
+/// replaces the config by `last` with exactly one message naming `{kind}::{field} = {value}`.
+fn each_bad_field_is_replaced<C: Clone + PartialEq + std::fmt::Debug>(
+    last: &C,
+    kind: &str,
+    fields: &[Field<C>],
+    validated: impl Fn(&C, &C) -> (C, Vec<String>),
+) {
+    for &(name, set) in fields {
+        for bad in BAD {
+            let mut c = last.clone();
+            set(&mut c, bad);
+            let (valid, errors) = validated(&c, last);
+            assert_eq!(&valid, last, "{name} = {bad}");
+            assert_eq!(errors.len(), 1, "{name} = {bad}: {errors:?}");
+            assert!(
+                errors[0].contains(&format!("{kind}::{name} = {bad:?}")),
+                "{}",
+                errors[0]
+            );
+        }
+    }
+}
+
 /// Every float field of `SolverConfig` set to each bad value is replaced by the last good
 /// value, with exactly one message naming the field and the value.
 #[test]
@@ -12,8 +39,7 @@ fn solver_config_replaces_each_bad_float_field() {
         contact_hertz: 25.0,
         ..SolverConfig::default()
     };
-    type Setter = fn(&mut SolverConfig, f32);
-    let fields: [(&str, Setter); 7] = [
+    let fields: [Field<SolverConfig>; 7] = [
         ("velocity_tolerance", |c, v| c.velocity_tolerance = v),
         ("restitution_threshold", |c, v| c.restitution_threshold = v),
         ("contact_hertz", |c, v| c.contact_hertz = v),
@@ -22,20 +48,7 @@ fn solver_config_replaces_each_bad_float_field() {
         ("baumgarte", |c, v| c.baumgarte = v),
         ("linear_slop", |c, v| c.linear_slop = v),
     ];
-    for (name, set) in fields {
-        for bad in BAD {
-            let mut c = last.clone();
-            set(&mut c, bad);
-            let (valid, errors) = c.validated(&last);
-            assert_eq!(valid, last, "{name} = {bad}");
-            assert_eq!(errors.len(), 1, "{name} = {bad}: {errors:?}");
-            assert!(
-                errors[0].contains(&format!("SolverConfig::{name} = {bad:?}")),
-                "{}",
-                errors[0]
-            );
-        }
-    }
+    each_bad_field_is_replaced(&last, "SolverConfig", &fields, SolverConfig::validated);
     // Zero is valid for these and invalid for the stiffness.
     let mut c = last.clone();
     c.baumgarte = 0.0;
@@ -52,25 +65,16 @@ fn narrow_phase_config_replaces_each_bad_float_field() {
         contact_margin: 0.03,
         ..NarrowPhaseConfig::default()
     };
-    type Setter = fn(&mut NarrowPhaseConfig, f32);
-    let fields: [(&str, Setter); 2] = [
+    let fields: [Field<NarrowPhaseConfig>; 2] = [
         ("contact_margin", |c, v| c.contact_margin = v),
         ("touch_distance", |c, v| c.touch_distance = v),
     ];
-    for (name, set) in fields {
-        for bad in BAD {
-            let mut c = last.clone();
-            set(&mut c, bad);
-            let (valid, errors) = c.validated(&last);
-            assert_eq!(valid, last, "{name} = {bad}");
-            assert_eq!(errors.len(), 1, "{name} = {bad}: {errors:?}");
-            assert!(
-                errors[0].contains(&format!("NarrowPhaseConfig::{name} = {bad:?}")),
-                "{}",
-                errors[0]
-            );
-        }
-    }
+    each_bad_field_is_replaced(
+        &last,
+        "NarrowPhaseConfig",
+        &fields,
+        NarrowPhaseConfig::validated,
+    );
     let mut c = last.clone();
     c.contact_margin = 0.0;
     c.touch_distance = 0.0;
