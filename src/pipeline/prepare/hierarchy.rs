@@ -283,6 +283,9 @@ fn place_collider(
     parent: Entity,
     collider: &Collider,
 ) {
+    // Long (about 90 lines) on purpose: the two outcomes of one look-up (a part of the body
+    // above, or a static collider of its own), each a few steps over the same query item; the
+    // part's material, layers and sensor flag are read where the part is built from them.
     let (mut relative, body) = body_above(h, entity, parent);
     let Ok((density, mass, name, disabled, marked, contacts)) = h.info.get(entity) else {
         return;
