@@ -204,7 +204,7 @@ pub fn propagate(
                           contacts: &[ContactConstraint],
                           met: &[bool],
                           spent: &[bool]| {
-            // A group whose bounces are spent is inelastic: it counts from the threshold of
+            // A group whose bounce is spent is inelastic: it counts from the threshold of
             // an inelastic contact, not the chain's.
             let chain = chained(pairs[k], stamp) && !spent[k];
             approach_time(bodies, contacts, &groups[k], params, met[k], chain)
@@ -284,7 +284,7 @@ pub fn propagate(
                 }
             }
             // Then, if the event is inelastic (its groups have no restitution, or have spent
-            // their bounces), the touching inelastic groups of its bodies, transitively,
+            // their bounce), the touching inelastic groups of its bodies, transitively,
             // nearest first, while it has fewer than `JOINED_ROWS` rows.
             let inelastic = params.join_touching
                 && event.iter().all(|&g| {
