@@ -118,6 +118,17 @@ fn run(s: &Scene) {
     );
 }
 
+/// A structure standing on the floor: its bodies must stay within `half_width` of the axis;
+/// its highest centre starts `top` above the floor.
+fn standing(bodies: Vec<Entity>, half_width: f32, top: f32) -> Spawned {
+    Spawned {
+        bodies,
+        half_width,
+        top,
+        floor: true,
+    }
+}
+
 fn pour(count: usize, bodies: PourBodies, friction: f32, size: f32, jitter: f32) -> Pour {
     let mut p = Pour::walled_box(count, bodies, 1.0, friction);
     p.size = size;
@@ -155,12 +166,7 @@ fn main() {
                     seconds: 10.0,
                     build: Box::new(move |w| {
                         let bodies = scenes::pyramid_with(w, base, three_d, friction);
-                        Spawned {
-                            bodies,
-                            half_width: 2.0 * base as f32,
-                            top: base as f32,
-                            floor: true,
-                        }
+                        standing(bodies, 2.0 * base as f32, base as f32)
                     }),
                     restitution: 0.0,
                 });
@@ -172,12 +178,7 @@ fn main() {
                     seconds: 10.0,
                     build: Box::new(move |w| {
                         let bodies = scenes::column(w, n, friction, ratio);
-                        Spawned {
-                            bodies,
-                            half_width: n as f32 + 1.0,
-                            top: n as f32,
-                            floor: true,
-                        }
+                        standing(bodies, n as f32 + 1.0, n as f32)
                     }),
                     restitution: 0.0,
                 });
