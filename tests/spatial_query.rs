@@ -5,6 +5,8 @@
 
 mod common;
 
+use std::f32::consts::FRAC_PI_2;
+
 use bevy::ecs::system::RunSystemOnce;
 use bevy::prelude::*;
 use common::{quad, spawn_static};
@@ -416,6 +418,118 @@ fn the_filter_decides_by_memberships_and_disabled_colliders_are_never_hit() {
         .remove::<ColliderDisabled>();
     run_steps(&mut app, 1);
     assert_eq!(first(&mut app, all()), vec![e[0], e[3]]);
+}
+
+/// A body with colliders on two child entities: queries test each collider and report it, not
+/// the body, as avian3d does, and filter it by its own layers. The body stands at (1, 2, 0)
+/// turned 90 degrees about y (`R x = (0, 0, -1)`): its sphere child (r 0.5, local (2, 0, 0),
+/// layer 0) is centred at (1, 2, -2), its box child (half extents (0.5, 0.25, 0.5), local
+/// (-2, 0, 0), layer 1) at (1, 2, 2). Closed-form answers: a ray down from y = 10 meets the
+/// sphere's top (y 2.5) at 7.5 and the box's top (y 2.25) at 7.75; a ray along +z from
+/// z = -10 meets the sphere at z = -2.5 (7.5) and the box at z = 1.5 (11.5). Excluding the body
+/// excludes both colliders.
+#[test]
+fn child_colliders_are_hit_and_filtered_as_themselves() {
+    let (mut body, mut sphere, mut cube) = (
+        Entity::PLACEHOLDER,
+        Entity::PLACEHOLDER,
+        Entity::PLACEHOLDER,
+    );
+    let mut app = world_of(|w| {
+        body = w
+            .spawn((
+                RigidBody::Kinematic,
+                Transform::from_xyz(1.0, 2.0, 0.0).with_rotation(Quat::from_rotation_y(FRAC_PI_2)),
+            ))
+            .id();
+        sphere = w
+            .spawn((
+                Collider::sphere(0.5),
+                Transform::from_xyz(2.0, 0.0, 0.0),
+                CollisionLayers::new(0b01, LayerMask::ALL),
+                ChildOf(body),
+            ))
+            .id();
+        cube = w
+            .spawn((
+                Collider::cuboid(0.5, 0.25, 0.5),
+                Transform::from_xyz(-2.0, 0.0, 0.0),
+                CollisionLayers::new(0b10, LayerMask::ALL),
+                ChildOf(body),
+            ))
+            .id();
+    });
+    run_steps(&mut app, 1);
+    for (x, z, entity, distance) in [(1.0, -2.0, sphere, 7.5), (1.0, 2.0, cube, 7.75)] {
+        let hit = with_query(&mut app, move |q| {
+            q.cast_ray(Vec3::new(x, 10.0, z), Dir3::NEG_Y, 100.0, true, &all())
+        })
+        .expect("a hit");
+        assert_eq!(hit.entity, entity);
+        assert!((hit.distance - distance).abs() <= TOL, "{hit:?}");
+        assert_close(hit.normal, Vec3::Y, TOL, "normal");
+    }
+    let along_z = |app: &mut App, filter: SpatialQueryFilter| {
+        with_query(app, move |q| {
+            q.ray_hits(
+                Vec3::new(1.0, 2.0, -10.0),
+                Dir3::Z,
+                100.0,
+                u32::MAX,
+                true,
+                &filter,
+            )
+            .iter()
+            .map(|h| (h.entity, h.distance))
+            .collect::<Vec<_>>()
+        })
+    };
+    let hits = along_z(&mut app, all());
+    assert_eq!(
+        hits.iter().map(|h| h.0).collect::<Vec<_>>(),
+        vec![sphere, cube]
+    );
+    assert!(
+        (hits[0].1 - 7.5).abs() <= TOL && (hits[1].1 - 11.5).abs() <= TOL,
+        "{hits:?}"
+    );
+    let only = |app: &mut App, filter| along_z(app, filter).iter().map(|h| h.0).collect::<Vec<_>>();
+    assert_eq!(
+        only(&mut app, SpatialQueryFilter::from_mask(0b01)),
+        vec![sphere]
+    );
+    assert_eq!(
+        only(&mut app, SpatialQueryFilter::from_mask(0b10)),
+        vec![cube]
+    );
+    assert_eq!(
+        only(&mut app, all().with_excluded_entities([sphere])),
+        vec![cube]
+    );
+    assert_eq!(only(&mut app, all().with_excluded_entities([body])), vec![]);
+    // Points: inside each collider, and between them (inside the body's box, in neither).
+    for (point, expected) in [
+        (Vec3::new(1.0, 2.0, -2.0), vec![sphere]),
+        (Vec3::new(1.0, 2.0, 2.0), vec![cube]),
+        (Vec3::new(1.0, 2.0, 0.0), vec![]),
+    ] {
+        let found = with_query(&mut app, move |q| q.point_intersections(point, &all()));
+        assert_eq!(found, expected, "at {point}");
+    }
+    let projection = with_query(&mut app, |q| {
+        q.project_point(Vec3::new(1.0, 2.0, -4.0), true, &all())
+    })
+    .expect("a projection");
+    assert_eq!(projection.entity, sphere);
+    assert_close(
+        projection.point,
+        Vec3::new(1.0, 2.0, -2.5),
+        TOL,
+        "projection",
+    );
+    // Disabling the body hides its colliders at once, before the next step.
+    app.world_mut().entity_mut(body).insert(RigidBodyDisabled);
+    assert_eq!(only(&mut app, all()), vec![]);
 }
 
 /// What a query sees between steps: a body spawned or moved is seen where the next step puts

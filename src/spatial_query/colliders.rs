@@ -9,16 +9,22 @@ use parry3d::math::Pose;
 use parry3d::partitioning::TraversalAction;
 use parry3d::shape::SharedShape;
 
+use crate::collision::parts::CompoundParts;
 use crate::collision::{BroadPhaseTree, CollisionLayers};
 use crate::dynamics::solver::Motion;
 use crate::pipeline::PhysicsState;
 
 /// One body's collider as queries see it: the shape the step collided with, at the body's pose
-/// at the end of the step.
+/// at the end of the step. A body with colliders on child entities has one record for the
+/// body (its compound shape, for the walk of the tree) holding one record for each collider
+/// ([`QueryCollider::parts`]), which are the ones queries test and report.
 #[derive(Clone)]
 pub(crate) struct QueryCollider {
-    /// The body.
+    /// The collider: the body itself, or for a part of a body with child colliders, the child
+    /// collider's entity.
     pub entity: Entity,
+    /// The body the collider belongs to (the same as `entity` for a body's own collider).
+    pub body: Entity,
     /// Its collider's shape, in metres (the one the step used; the narrow phase works on a copy
     /// scaled to the length unit by a power of two, which is the same geometry).
     pub shape: SharedShape,
@@ -36,6 +42,61 @@ pub(crate) struct QueryCollider {
     /// `aabb` is not inside the box of its leaf in the tree (the body moved out of the box the
     /// broad phase gave it): it is tested directly, not through the tree.
     straggler: bool,
+    /// For a body with child colliders: one record for each subshape of its compound shape,
+    /// with the pose, box, entity and layers of the collider it belongs to. Queries test these
+    /// in place of the body's record. Empty for any other body.
+    parts: Vec<QueryCollider>,
+}
+
+impl QueryCollider {
+    /// Calls `visit` with this record, or, for a body with child colliders, with each of its
+    /// colliders' records whose box passes `enter` (this record's box has passed it already).
+    fn visit_colliders(&self, mut enter: impl FnMut(&Aabb) -> bool, mut visit: impl FnMut(&Self)) {
+        if self.parts.is_empty() {
+            visit(self);
+            return;
+        }
+        for part in &self.parts {
+            if enter(&part.aabb) {
+                visit(part);
+            }
+        }
+    }
+
+    /// The records of a body's colliders (see [`QueryCollider::parts`]): `body` is the record
+    /// of the body as a whole, `shape` its compound, and `parts` says which collider each
+    /// subshape belongs to.
+    fn colliders_of(body: &QueryCollider, parts: &CompoundParts) -> Vec<QueryCollider> {
+        let Some(compound) = body.shape.as_compound() else {
+            return Vec::new();
+        };
+        compound
+            .shapes()
+            .iter()
+            .enumerate()
+            .map(|(k, (local, shape))| {
+                let part = parts.of_subshape(k as u32);
+                let pose = body.pose * *local;
+                let aabb = if body.hittable {
+                    shape.compute_aabb(&pose)
+                } else {
+                    body.aabb
+                };
+                QueryCollider {
+                    entity: part.collider,
+                    body: body.entity,
+                    shape: shape.clone(),
+                    pose,
+                    aabb,
+                    layers: part.layers,
+                    hittable: body.hittable,
+                    step: body.step,
+                    straggler: false,
+                    parts: Vec::new(),
+                }
+            })
+            .collect()
+    }
 }
 
 /// How far a box is widened for the candidate tests, m: 1e-5 of its largest coordinate (about
@@ -109,13 +170,13 @@ impl SpatialQueryColliders {
                 && !c.straggler
                 && enter(&widened(&c.aabb))
             {
-                visit(c);
+                c.visit_colliders(|b| enter(&widened(b)), &mut visit);
             }
             TraversalAction::Continue
         });
         for c in self.outside_tree(tree) {
             if enter(&widened(&c.aabb)) {
-                visit(c);
+                c.visit_colliders(|b| enter(&widened(b)), &mut visit);
             }
         }
     }
@@ -156,14 +217,14 @@ impl SpatialQueryColliders {
                     && !c.straggler
                     && reach(&c.aabb).is_some()
                 {
-                    visit(c);
+                    c.visit_colliders(|b| reach(b).is_some(), &visit);
                 }
                 None::<f32>
             },
         );
         for c in self.outside_tree(tree) {
             if reach(&c.aabb).is_some() {
-                visit(c);
+                c.visit_colliders(|b| reach(b).is_some(), &visit);
             }
         }
     }
@@ -208,6 +269,7 @@ impl SpatialQueryColliders {
             };
             let mut record = QueryCollider {
                 entity,
+                body: entity,
                 shape,
                 pose,
                 aabb,
@@ -215,7 +277,11 @@ impl SpatialQueryColliders {
                 hittable: finite && state.collides()[i],
                 step,
                 straggler: false,
+                parts: Vec::new(),
             };
+            if let Some(parts) = &state.parts()[i] {
+                record.parts = QueryCollider::colliders_of(&record, parts);
+            }
             match tree.leaf(entity) {
                 Some(leaf) => {
                     let inside = tree

@@ -31,7 +31,8 @@ use crate::collision::{CollisionLayers, LayerMask};
 pub struct SpatialQueryFilter {
     /// The layers whose members are considered. Default [`LayerMask::ALL`].
     pub mask: LayerMask,
-    /// Entities never considered. Default none.
+    /// Colliders never considered, and bodies whose colliders are never considered. Default
+    /// none.
     pub excluded_entities: EntityHashSet,
 }
 

@@ -25,7 +25,7 @@ impl SpatialQuery<'_, '_> {
             &self.tree,
             |b| b.intersects(&query),
             |c| {
-                if self.live.contains(c.entity) && c.aabb.intersects(&query) {
+                if self.is_live(c) && c.aabb.intersects(&query) {
                     found.push(c.entity);
                 }
             },

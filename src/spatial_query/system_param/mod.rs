@@ -99,6 +99,8 @@ pub struct SpatialQuery<'w, 's> {
     colliders: Res<'w, SpatialQueryColliders>,
     /// The bodies that still have a collider, enabled and not quarantined.
     live: Query<'w, 's, (), Live>,
+    /// The entities not disabled as bodies nor quarantined (for the body of a child collider).
+    enabled: Query<'w, 's, (), (Without<RigidBodyDisabled>, Without<Quarantined>)>,
 }
 
 /// A body that still has a collider, enabled and not quarantined.
@@ -110,9 +112,17 @@ type Live = (
 );
 
 impl SpatialQuery<'_, '_> {
-    /// Whether `c` passes `filter` and is still a live collider.
+    /// Whether `c` passes `filter` (excluding a body excludes its colliders) and is still a
+    /// live collider of a live body.
     fn accepts(&self, c: &QueryCollider, filter: &SpatialQueryFilter) -> bool {
-        filter.test(c.entity, c.layers) && self.live.contains(c.entity)
+        filter.test(c.entity, c.layers)
+            && !filter.excluded_entities.contains(&c.body)
+            && self.is_live(c)
+    }
+
+    /// Whether `c` is still a live collider (enabled, not quarantined) of a live body.
+    fn is_live(&self, c: &QueryCollider) -> bool {
+        self.live.contains(c.entity) && (c.body == c.entity || self.enabled.contains(c.body))
     }
 
     /// The nearest hit (of least entity among equally near ones) of a cast, or the nearest
