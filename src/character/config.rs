@@ -4,7 +4,7 @@
 use bevy::prelude::*;
 
 use crate::collision::Collider;
-use crate::dynamics::validation::MAX_LENGTH;
+use crate::dynamics::validation::{MAX_LENGTH, MAX_MASS};
 
 /// Cosine of 5 degrees: [`MoveAndSlideConfig::plane_similarity_dot_threshold`]'s default.
 #[allow(clippy::excessive_precision)]
@@ -151,7 +151,9 @@ impl DepenetrationConfig {
 ///     ..Default::default()
 /// };
 /// assert!(config.validate().is_ok());
-/// assert!(CharacterConfig { snap_to_ground: f32::NAN, ..config }.validate().is_err());
+/// assert!(CharacterConfig { snap_to_ground: f32::NAN, ..config.clone() }.validate().is_err());
+/// assert!(CharacterConfig { push_mass: Some(0.0), ..config.clone() }.validate().is_err());
+/// assert!(CharacterConfig { push_mass: Some(80.0), ..config }.validate().is_ok());
 /// ```
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component, Debug, PartialEq, Default)]
@@ -174,6 +176,13 @@ pub struct CharacterConfig {
     /// The move and slide underneath (skin width, iterations, depenetration). Default: avian3d's
     /// defaults with 8 iterations (a step up takes one).
     pub move_and_slide: MoveAndSlideConfig,
+    /// The mass the character pushes dynamic bodies with, kg, in (0, 1e12]: each dynamic body
+    /// its move runs into takes the impulse of an inelastic impact (`e = 0`) with a body of
+    /// this mass moving at the character's velocity, by the seed formula at the point and
+    /// normal of the hit (the character's own rotation left out, and nothing pushes it back:
+    /// it is kinematic). `None`: it pushes nothing; it slides along dynamic bodies as along
+    /// static ones (the solver's contacts still push out what it overlaps). Default `None`.
+    pub push_mass: Option<f32>,
 }
 
 impl Default for CharacterConfig {
@@ -188,14 +197,15 @@ impl Default for CharacterConfig {
                 move_and_slide_iterations: 8,
                 ..default()
             },
+            push_mass: None,
         }
     }
 }
 
 impl CharacterConfig {
     /// `Ok` if every field is usable, else what is wrong: `up` not a finite unit vector, the
-    /// slope angle outside [0, pi/2], a length negative, NaN or above 1e6, or a bad
-    /// [`MoveAndSlideConfig`].
+    /// slope angle outside [0, pi/2], a length negative, NaN or above 1e6, a push mass not in
+    /// (0, 1e12] kg, or a bad [`MoveAndSlideConfig`].
     pub fn validate(&self) -> Result<(), String> {
         let up = self.up.as_vec3();
         if !up.is_finite() || (up.length_squared() - 1.0).abs() > 1e-3 {
@@ -208,6 +218,13 @@ impl CharacterConfig {
         check_length("max_step_height", self.max_step_height)?;
         check_length("min_step_width", self.min_step_width)?;
         check_length("snap_to_ground", self.snap_to_ground)?;
+        if let Some(mass) = self.push_mass
+            && !(mass > 0.0 && mass <= MAX_MASS)
+        {
+            return Err(format!(
+                "push_mass = {mass} kg is not a mass in (0, {MAX_MASS:e}]"
+            ));
+        }
         self.move_and_slide.validate()
     }
 }

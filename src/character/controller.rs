@@ -9,9 +9,11 @@ use bevy::prelude::*;
 use super::MoveAndSlide;
 use super::config::{CharacterConfig, DepenetrationConfig, MoveAndSlideConfig};
 use super::walk::{CharacterHit, CharacterOutput};
-use crate::collision::{Collider, CollisionLayers};
+use crate::collision::{Collider, ColliderOf, CollisionLayers};
 use crate::dynamics::RigidBody;
+use crate::dynamics::forces::Forces;
 use crate::dynamics::validation::MAX_LINEAR_SPEED;
+use crate::impulse::ImpulseBody;
 use crate::schedule::{PhysicsSystems, PhysicsTime};
 use crate::spatial_query::SpatialQueryFilter;
 
@@ -23,7 +25,8 @@ use crate::spatial_query::SpatialQueryFilter;
 ///
 /// It is a [`RigidBody::Kinematic`] body (required): contacts do not move it, it moves only
 /// through its `Transform`, which the plugin sets, before each physics step
-/// ([`CharacterSystems`]), against the colliders as the previous step left them. Its
+/// ([`CharacterSystems`]), against the colliders as the previous step left them; with
+/// [`CharacterConfig::push_mass`] it pushes the dynamic bodies it runs into. Its
 /// `Transform` must be its world pose (no parent) with scale 1; its
 /// [`CollisionLayers`]' filters say what it collides with. Nothing pulls it down: add gravity
 /// to `velocity` yourself (and drop it while [`CharacterOutput::grounded`]), as with Rapier's
@@ -136,6 +139,8 @@ type CharacterData = (
 /// stores what happened in its [`CharacterOutput`]. Bad input is logged once per character.
 pub fn move_kinematic_characters(
     mut characters: Query<CharacterData>,
+    mut pushed: Query<Forces, Without<KinematicCharacter>>,
+    colliders: Query<&ColliderOf>,
     move_and_slide: MoveAndSlide,
     time: Res<Time>,
     clock: Option<Res<PhysicsTime>>,
@@ -163,6 +168,11 @@ pub fn move_kinematic_characters(
         );
         match moved {
             Ok(out) => {
+                if let Some(mass) = config.push_mass {
+                    let character =
+                        ImpulseBody::sphere_like(mass, transform.translation, character.velocity);
+                    push_bodies(&mut pushed, &colliders, character, &out.hits);
+                }
                 if transform.translation != out.position {
                     transform.translation = out.position;
                 }
@@ -184,6 +194,24 @@ pub fn move_kinematic_characters(
         }
     }
     *reported = errors;
+}
+
+/// Pushes each dynamic body among `hits` (the body of a hit child collider) as an inelastic
+/// impact of `character` would (see [`CharacterConfig::push_mass`]), hit by hit: a body
+/// hit again along the same normal is already moving away and takes nothing more.
+fn push_bodies(
+    pushed: &mut Query<Forces, Without<KinematicCharacter>>,
+    colliders: &Query<&ColliderOf>,
+    character: ImpulseBody,
+    hits: &[CharacterHit],
+) {
+    for hit in hits {
+        let body = colliders.get(hit.entity).map_or(hit.entity, |c| c.body);
+        if let Ok(mut forces) = pushed.get_mut(body) {
+            // The hit's normal points out of the body hit, towards the character.
+            forces.take_impact(character, hit.point, -hit.normal);
+        }
+    }
 }
 
 /// One character's move, or why it cannot move.

@@ -32,7 +32,8 @@ pub struct CharacterOutput {
     /// The normal of that ground (of the face under it where it stands on an edge); zero when
     /// not grounded.
     pub ground_normal: Vec3,
-    /// The body of that ground.
+    /// The collider of that ground (a child collider's entity for a body with colliders on its
+    /// children).
     pub ground_entity: Option<Entity>,
     /// How far the character stepped up onto ledges in this move, m.
     pub stepped_up: f32,
@@ -46,7 +47,7 @@ pub struct CharacterOutput {
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Debug, PartialEq)]
 pub struct CharacterHit {
-    /// The body hit.
+    /// The collider hit (a child collider's entity for a body with colliders on its children).
     pub entity: Entity,
     /// The point hit on it, world frame.
     pub point: Vec3,

@@ -320,6 +320,24 @@ impl ForcesItem<'_, '_> {
     }
 
     /// The body as the impulse formula sees it.
+    /// Resolves an inelastic impact of `other` (a body this one does not push back, such as a
+    /// kinematic character seen as a body of its mass) on this body at world `point` with unit
+    /// `normal` from `other` to this body, by the seed formula with `e = 0`
+    /// ([`resolve_impact`](crate::impulse::resolve_impact)): while they approach, this body
+    /// takes `+j n` at the point. Returns `j`, N s (0 for a body that is not dynamic or does
+    /// not approach).
+    pub fn take_impact(&mut self, mut other: ImpulseBody, point: Vec3, normal: Vec3) -> f32 {
+        if !self.body.is_dynamic() {
+            return 0.0;
+        }
+        let mut body = self.impulse_body();
+        let j = crate::impulse::resolve_impact(&mut other, &mut body, point, normal, 0.0);
+        if j > 0.0 {
+            self.set_velocities(body.linear_velocity, body.angular_velocity);
+        }
+        j
+    }
+
     fn impulse_body(&self) -> ImpulseBody {
         let locked = self.locked.copied().unwrap_or_default();
         ImpulseBody {
