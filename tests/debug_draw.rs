@@ -4,6 +4,7 @@
 //! Run with `cargo test --features debug --test debug_draw`.
 
 use std::any::TypeId;
+use std::f32::consts::FRAC_PI_2;
 
 use bevy::color::palettes::css;
 use bevy::gizmos::{GizmoAsset, GizmoHandles, GizmoPlugin};
@@ -412,4 +413,73 @@ fn all_layers_off_draw_nothing() {
     scenes::resting_box(app.world_mut(), 0.0);
     scenes::run_steps(&mut app, 3);
     assert!(segments(&app).is_empty());
+}
+
+/// Colliders are drawn where the physics has them: a child collider at its world pose (its
+/// body at (10, 0, 0) turned 90 degrees about y, the child cube 2 m along the body's x: centred
+/// at (10, 0, -2), `R x = (0, 0, -1)`), in its body's colour unless it has its own; and a
+/// collider scaled with its `Transform` (a cube of half extent 0.5 scaled (2, 1, 1): half
+/// extents (1, 0.5, 0.5) about (20, 0, 0)). Each cube's 12 segments join its corners
+/// (tolerance 1e-5: f32 rounding of the composed poses).
+#[test]
+fn child_and_scaled_colliders_are_drawn_where_the_physics_has_them() {
+    let mut app = app(layers(true, false, false, false));
+    let world = app.world_mut();
+    world.insert_resource(Gravity(Vec3::ZERO));
+    let body = world
+        .spawn((
+            RigidBody::Dynamic,
+            Transform::from_xyz(10.0, 0.0, 0.0).with_rotation(Quat::from_rotation_y(FRAC_PI_2)),
+        ))
+        .id();
+    world.spawn((
+        Collider::cuboid(0.5, 0.5, 0.5),
+        Transform::from_xyz(2.0, 0.0, 0.0),
+        DebugRender::colored(css::LIME),
+        ChildOf(body),
+    ));
+    world.spawn((
+        Collider::cuboid(0.5, 0.5, 0.5),
+        Transform::from_xyz(-2.0, 0.0, 0.0),
+        ChildOf(body),
+    ));
+    world.spawn((
+        RigidBody::Dynamic,
+        Collider::cuboid(0.5, 0.5, 0.5),
+        Transform::from_xyz(20.0, 0.0, 0.0).with_scale(Vec3::new(2.0, 1.0, 1.0)),
+        DebugRender::colored(css::AQUA),
+    ));
+    app.update();
+    app.update();
+
+    let s = segments(&app);
+    let corners_of = |color: Srgba, center: Vec3, half: Vec3| {
+        let c = Color::from(color).to_linear();
+        let drawn: Vec<_> = s.iter().filter(|x| x.2 == c).collect();
+        assert_eq!(drawn.len(), 12, "a cube's 12 edges in {color:?}");
+        for (a, b, _) in drawn {
+            for p in [a, b] {
+                let d = (*p - center).abs();
+                assert!(
+                    (d - half).abs().max_element() < 1e-5,
+                    "{p} is no corner of the box about {center}"
+                );
+            }
+        }
+    };
+    corners_of(css::LIME, Vec3::new(10.0, 0.0, -2.0), Vec3::splat(0.5));
+    corners_of(
+        css::AQUA,
+        Vec3::new(20.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.5, 0.5),
+    );
+    // The other child is its dynamic body's colour, about (10, 0, 2).
+    let config = PhysicsGizmos::default();
+    let orange = config.dynamic_color.to_linear();
+    let other: Vec<_> = s.iter().filter(|x| x.2 == orange).collect();
+    assert_eq!(other.len(), 12);
+    for (a, _, _) in other {
+        let d = (*a - Vec3::new(10.0, 0.0, 2.0)).abs();
+        assert!((d - Vec3::splat(0.5)).abs().max_element() < 1e-5, "{a}");
+    }
 }

@@ -4,10 +4,12 @@
 use bevy::gizmos::gizmos::Gizmos;
 use bevy::prelude::*;
 use parry3d::math::Pose;
+use parry3d::shape::SharedShape;
 
 use super::{BodyState, DebugRender, ImpactTrails, PhysicsGizmoGroup, PhysicsGizmos};
 use super::{arrow_segments, box_segments, cross_segments, shape_segments};
-use crate::collision::{Collider, ContactPairs, NarrowPhaseConfig};
+use crate::collision::collider::scaled_shape;
+use crate::collision::{Collider, ColliderOf, ContactPairs, NarrowPhaseConfig};
 use crate::dynamics::validation::PhysicsLengthUnit;
 use crate::dynamics::{AngularVelocity, LinearVelocity, Quarantined, RigidBody, Sleeping};
 use crate::messages::Impact;
@@ -28,34 +30,57 @@ fn flush(gizmos: &mut Gizmos<PhysicsGizmoGroup>, segments: &mut Vec<[Vec3; 2]>, 
 type BodyQuery<'a> = (
     &'a Collider,
     &'a Transform,
-    Option<&'a RigidBody>,
-    Has<Sleeping>,
-    Has<Quarantined>,
+    Option<&'a GlobalTransform>,
+    Has<ChildOf>,
+    Option<&'a ColliderOf>,
     Option<&'a DebugRender>,
 );
 
+/// The components a collider's colour comes from, on its body.
+type StateQuery<'a> = (Option<&'a RigidBody>, Has<Sleeping>, Has<Quarantined>);
+
+/// A collider's shape as the physics sees it, in the world: at its `Transform` for a top-level
+/// entity, at its `GlobalTransform` for a child (a part of its parent's body), and scaled by
+/// that transform's scale as [`scaled_shape`] scales it (unscaled where it cannot be).
+fn world_shape(
+    collider: &Collider,
+    transform: &Transform,
+    global: Option<&GlobalTransform>,
+    child: bool,
+) -> (SharedShape, Pose) {
+    let (scale, rotation, translation) = match global {
+        Some(global) if child => global.to_scale_rotation_translation(),
+        _ => (transform.scale, transform.rotation, transform.translation),
+    };
+    let shape = scaled_shape(collider.shape(), scale)
+        .map_or_else(|_| collider.shape().clone(), |(shape, _)| shape);
+    (shape, Pose::from_parts(translation, rotation.normalize()))
+}
+
 /// Draws each collider's wireframe ([`shape_segments`]) in the colour of its [`BodyState`] or
 /// its [`DebugRender::color`].
+///
+/// Each collider is drawn where the physics has it: a child collider at its world pose, each
+/// collider scaled by its scale (see `world_shape`), and a child collider in its body's colour.
 pub fn draw_colliders(
     mut gizmos: Gizmos<PhysicsGizmoGroup>,
     config: Res<PhysicsGizmos>,
-    bodies: Query<BodyQuery>,
+    colliders: Query<(Entity, BodyQuery)>,
+    states: Query<StateQuery>,
     mut segments: Local<Vec<[Vec3; 2]>>,
 ) {
-    for (collider, transform, body, sleeping, quarantined, render) in &bodies {
+    for (entity, (collider, transform, global, child, part_of, render)) in &colliders {
         let render = render.copied().unwrap_or_default();
         if !render.collider.unwrap_or(config.colliders) {
             continue;
         }
-        let color = render
-            .color
-            .unwrap_or_else(|| BodyState::of(body, sleeping, quarantined).color(&config));
-        shape_segments(
-            collider.shape().as_ref(),
-            &pose_of(transform),
-            &config,
-            &mut segments,
-        );
+        let color = render.color.unwrap_or_else(|| {
+            let body = part_of.map_or(entity, |c| c.body);
+            let (kind, sleeping, quarantined) = states.get(body).unwrap_or((None, false, false));
+            BodyState::of(kind, sleeping, quarantined).color(&config)
+        });
+        let (shape, pose) = world_shape(collider, transform, global, child);
+        shape_segments(shape.as_ref(), &pose, &config, &mut segments);
         flush(&mut gizmos, &mut segments, color);
     }
 }
@@ -68,13 +93,14 @@ pub fn draw_aabbs(
     bodies: Query<BodyQuery>,
     mut segments: Local<Vec<[Vec3; 2]>>,
 ) {
-    for (collider, transform, _, _, _, render) in &bodies {
+    for (collider, transform, global, child, _, render) in &bodies {
         if !render.and_then(|r| r.aabb).unwrap_or(config.aabbs)
             || collider.shape().as_halfspace().is_some()
         {
             continue;
         }
-        let aabb = collider.shape().compute_aabb(&pose_of(transform));
+        let (shape, pose) = world_shape(collider, transform, global, child);
+        let aabb = shape.compute_aabb(&pose);
         box_segments(aabb.mins, aabb.maxs, &Pose::identity(), &mut segments);
         flush(&mut gizmos, &mut segments, config.aabb_color);
     }

@@ -207,7 +207,8 @@ impl Plugin for PhysicsDebugPlugin {
                     draw_islands,
                 )
                     .chain()
-                    .in_set(PhysicsDebugSystems),
+                    .in_set(PhysicsDebugSystems)
+                    .after(TransformSystems::Propagate),
             );
     }
 }
