@@ -459,6 +459,72 @@ fn colliding_entities_hold_the_touching_set() {
     assert_eq!(set(&app, c), vec![ground]);
 }
 
+/// `CollidingEntities` is a collider's, as avian3d's: on a body with two child colliders, a
+/// box resting on the ground (its bottom at y = 0) and a box 2 m above it, only the lower
+/// child lists the ground, the upper child lists nothing, and the ground lists the lower
+/// child, not the body. Also with the components inserted after the body has settled (filled
+/// from the pairs touching then). Sleeping off, so the pairs stay awake.
+#[test]
+fn colliding_entities_of_child_colliders_name_colliders() {
+    for insert_late in [false, true] {
+        let mut app = app();
+        app.insert_resource(SleepConfig {
+            enabled: false,
+            ..default()
+        });
+        let ground = app
+            .world_mut()
+            .spawn((RigidBody::Static, Collider::half_space(Vec3::Y)))
+            .id();
+        let body = app
+            .world_mut()
+            .spawn((RigidBody::Dynamic, Transform::from_xyz(0.0, 0.5, 0.0)))
+            .id();
+        let child = |app: &mut App, y: f32| {
+            app.world_mut()
+                .spawn((
+                    Collider::cuboid(0.5, 0.5, 0.5),
+                    Transform::from_xyz(0.0, y, 0.0),
+                    ChildOf(body),
+                ))
+                .id()
+        };
+        let (lower, upper) = (child(&mut app, 0.0), child(&mut app, 2.0));
+        let watched = [ground, lower, upper, body];
+        if !insert_late {
+            for e in watched {
+                app.world_mut()
+                    .entity_mut(e)
+                    .insert(CollidingEntities::default());
+            }
+        }
+        for _ in 0..60 {
+            app.update();
+        }
+        if insert_late {
+            for e in watched {
+                app.world_mut()
+                    .entity_mut(e)
+                    .insert(CollidingEntities::default());
+            }
+            app.update();
+        }
+        let set = |app: &App, e: Entity| -> Vec<Entity> {
+            app.world()
+                .get::<CollidingEntities>(e)
+                .unwrap()
+                .iter()
+                .copied()
+                .collect()
+        };
+        assert_eq!(set(&app, lower), vec![ground], "late {insert_late}");
+        assert_eq!(set(&app, upper), vec![], "late {insert_late}");
+        assert_eq!(set(&app, ground), vec![lower], "late {insert_late}");
+        // The body has no collider of its own: it touches nothing itself.
+        assert_eq!(set(&app, body), vec![], "late {insert_late}");
+    }
+}
+
 /// A box resting on the ground inside a static sensor falls asleep as it would without it (a
 /// sensor's touch joins no island), and stays asleep, unmoved, when the sensor is despawned (a
 /// sensor held nothing up: losing it wakes no one); its `CollidingEntities` loses the sensor.

@@ -46,8 +46,9 @@ pub struct Sensor;
 #[reflect(Debug, Component, Default, PartialEq)]
 pub struct CollisionEventsEnabled;
 
-/// The entities this body touches now, kept by the step (insert it, empty, on the bodies that
-/// need it). Updated in [`PhysicsSystems::Messages`](crate::schedule::PhysicsSystems) from
+/// The colliders this collider touches now, kept by the step (insert it, empty, on the
+/// colliders that need it), as avian3d's: a body's own collider is named by the body's
+/// entity, a child collider by its own. Updated in [`PhysicsSystems::Messages`](crate::schedule::PhysicsSystems) from
 /// the same touching state as the collision messages; filled from the current contacts when
 /// inserted. It also makes the step find the contacts of this body's kinematic and static
 /// pairs (see the [module](self)).

@@ -110,9 +110,11 @@ pub fn send_messages(
     update_colliding_entities(&events, &pairs, &mut reporters);
 }
 
-/// Brings every [`CollidingEntities`] up to date with the step's touching transitions; a newly
-/// inserted one is filled from every pair touching now (the resting pairs of sleeping bodies
-/// included).
+/// Brings every [`CollidingEntities`] up to date with the step's touching transitions between
+/// colliders ([`StepEvents::colliders_started`] and `colliders_ended`: a body's own collider
+/// is named by the body, a child collider by its own entity), as avian3d's, which is a
+/// collider's; a newly inserted one is filled from every pair of colliders touching now (the
+/// resting pairs of sleeping bodies included).
 fn update_colliding_entities(events: &StepEvents, pairs: &ContactPairs, reporters: &mut Reporters) {
     if reporters.colliding.is_empty() {
         return;
@@ -126,33 +128,34 @@ fn update_colliding_entities(events: &StepEvents, pairs: &ContactPairs, reporter
     }
     inserted.sort_unstable();
     let fresh = |e: Entity| inserted.binary_search(&e).is_ok();
-    if !inserted.is_empty() {
-        for pair in pairs.iter().filter(|p| p.touching) {
-            for (me, other) in [(pair.a, pair.b), (pair.b, pair.a)] {
-                if fresh(me)
-                    && let Ok((_, mut set)) = reporters.colliding.get_mut(me)
-                {
+    let mut update = |(a, b): (Entity, Entity), touching: bool, only_fresh: bool| {
+        for (me, other) in [(a, b), (b, a)] {
+            if fresh(me) == only_fresh
+                && let Ok((_, mut set)) = reporters.colliding.get_mut(me)
+            {
+                if touching {
                     set.insert(other);
+                } else {
+                    set.remove(&other);
                 }
             }
         }
-    }
-    for &(a, b) in &events.started {
-        for (me, other) in [(a, b), (b, a)] {
-            if !fresh(me)
-                && let Ok((_, mut set)) = reporters.colliding.get_mut(me)
-            {
-                set.insert(other);
+    };
+    if !inserted.is_empty() {
+        for pair in pairs.iter().filter(|p| p.touching) {
+            if pair.compound {
+                for &colliders in &pair.part_touching {
+                    update(colliders, true, true);
+                }
+            } else {
+                update((pair.a, pair.b), true, true);
             }
         }
     }
-    for &(a, b) in &events.ended {
-        for (me, other) in [(a, b), (b, a)] {
-            if !fresh(me)
-                && let Ok((_, mut set)) = reporters.colliding.get_mut(me)
-            {
-                set.remove(&other);
-            }
-        }
+    for p in &events.colliders_started {
+        update(p.colliders, true, false);
+    }
+    for p in &events.colliders_ended {
+        update(p.colliders, false, false);
     }
 }
