@@ -19,6 +19,7 @@ use crate::impulse::{apply_row_impulse, row_inverse_mass};
 mod block;
 mod loads;
 mod order;
+mod row;
 mod support;
 mod sweep;
 #[cfg(test)]
@@ -27,6 +28,7 @@ mod tests;
 pub use block::*;
 use loads::*;
 use order::*;
+use row::*;
 use support::*;
 pub use sweep::*;
 

@@ -203,6 +203,9 @@ pub(super) fn solve_block(
     // Long on purpose: one block solve read top to bottom (each row's bias, the soft plane's
     // coupling, then the passes over the rows), its steps sharing a dozen locals (the support's
     // response, the soft sums); split, they would travel together as a struct of their own.
+    if let [c] = group {
+        return solve_row(bodies, c, block, solve);
+    }
     // The support responds along its free direction, its rotation scaled by `1 - hold`.
     let response = block.response(group[0].normal);
     let (fa, fb) = (response.a.angular, response.b.angular);
@@ -226,27 +229,9 @@ pub(super) fn solve_block(
     let [mut rn_a, mut ang_a, mut rn_b, mut ang_b] = [Vec3::ZERO; 4];
     let mut total = 0.0f32;
     for c in group.iter() {
-        if c.normal_mass == 0.0 {
+        let Some(row) = block_row(c, bodies, solve) else {
             rows.push(None);
             continue;
-        }
-        let s = c.current_separation(bodies);
-        if solve
-            .leave_impacts
-            .is_some_and(|t| s > 0.0 && c.normal_velocity(bodies) < -t)
-        {
-            rows.push(None);
-            continue;
-        }
-        let row = if s > 0.0 {
-            (s * solve.inv_h, false)
-        } else if let Some(soft) = solve.soft {
-            (
-                (soft.bias_rate * s).max(-solve.max_push_out),
-                soft.impulse_scale > 0.0,
-            )
-        } else {
-            (0.0, false)
         };
         if row.1 {
             count += 1;
@@ -330,11 +315,8 @@ pub(super) fn solve_block(
             } else {
                 (vn + bias, k)
             };
-            let new = (c.normal_impulse - residual / diagonal).max(0.0);
-            let delta = new - c.normal_impulse;
+            let delta = update_row(c, bodies, residual / diagonal, &response);
             if delta != 0.0 {
-                c.normal_impulse = new;
-                apply_response(c, bodies, delta, &response);
                 if soft {
                     total += delta;
                 }
@@ -342,7 +324,6 @@ pub(super) fn solve_block(
                 last_changed = Some(i);
                 changed = true;
             }
-            c.max_normal_impulse = c.max_normal_impulse.max(new);
         }
         if iteration == 0 {
             first = largest;
@@ -355,4 +336,57 @@ pub(super) fn solve_block(
         }
     }
     (false, first, changed)
+}
+
+/// A row's part in its block's solve (see [`manifold_sweep`]), from its separation `s` now:
+/// `(bias, soft)` with `bias = s/h` for a speculative row (`s > 0`, rigid), else the soft
+/// push-out `max(bias_rate s, -cap)` (soft where the spring has any softness), or 0 in the rigid
+/// relax pass. `None` when it takes no part: no effective mass, or a speculative row approaching
+/// faster than [`ManifoldSolve::leave_impacts`].
+#[inline]
+pub(super) fn block_row(
+    c: &ContactConstraint,
+    bodies: &[SolverBody],
+    solve: &ManifoldSolve,
+) -> BlockRow {
+    if c.normal_mass == 0.0 {
+        return None;
+    }
+    let s = c.current_separation(bodies);
+    if solve
+        .leave_impacts
+        .is_some_and(|t| s > 0.0 && c.normal_velocity(bodies) < -t)
+    {
+        return None;
+    }
+    Some(if s > 0.0 {
+        (s * solve.inv_h, false)
+    } else if let Some(soft) = solve.soft {
+        (
+            (soft.bias_rate * s).max(-solve.max_push_out),
+            soft.impulse_scale > 0.0,
+        )
+    } else {
+        (0.0, false)
+    })
+}
+
+/// One Gauss-Seidel update of a block's row: its accumulated impulse less `step` (the residual
+/// over the diagonal), clamped at zero, the change applied to the bodies through `response`
+/// and the largest impulse recorded. Returns the change.
+#[inline]
+pub(super) fn update_row(
+    c: &mut ContactConstraint,
+    bodies: &mut [SolverBody],
+    step: f32,
+    response: &Response,
+) -> f32 {
+    let new = (c.normal_impulse - step).max(0.0);
+    let delta = new - c.normal_impulse;
+    if delta != 0.0 {
+        c.normal_impulse = new;
+        apply_response(c, bodies, delta, response);
+    }
+    c.max_normal_impulse = c.max_normal_impulse.max(new);
+    delta
 }

@@ -137,6 +137,13 @@ pub fn propagate(
     params: &Propagation,
 ) -> PropagationReport {
     let mut report = PropagationReport::default();
+    if nothing_approaches(bodies, contacts, groups, params) {
+        // The first sweep would find no impact and the pass would end with it (a group with
+        // rows is checked once, unless the bound allows no sweep).
+        let checked = groups.iter().any(|g| has_rows(contacts, g));
+        report.sweeps = u32::from(checked && params.max_sweeps > 0);
+        return report;
+    }
     let mut scratch = EventScratch::new(bodies.len());
     // Only a group one of whose bodies changed velocity since the group was last checked can
     // have started to approach: `stamp` is, per body, the number of the resolution that last
@@ -152,10 +159,7 @@ pub fn propagate(
     let pairs: Vec<Option<(usize, usize)>> = groups
         .iter()
         .map(|g| {
-            contacts
-                .get(g.start)
-                .filter(|_| !g.is_empty())
-                .map(|c| (c.body_a, c.body_b))
+            has_rows(contacts, g).then(|| (contacts[g.start].body_a, contacts[g.start].body_b))
         })
         .collect();
     let touching = GroupsOfBody::new(bodies, &pairs);
@@ -385,6 +389,26 @@ pub fn propagate(
         }
     }
     report
+}
+
+/// True when no group approaches at the start of the step (see `approach_time`; before any
+/// impact no group has met and none is chained): then a propagation pass does nothing, and a
+/// settled pile's pass is this one look at its contacts, without the pass's per-group state.
+fn nothing_approaches(
+    bodies: &[SolverBody],
+    contacts: &[ContactConstraint],
+    groups: &[Range<usize>],
+    params: &Propagation,
+) -> bool {
+    groups
+        .iter()
+        .filter(|g| has_rows(contacts, g))
+        .all(|g| approach_time(bodies, contacts, g, params, false, false).is_none())
+}
+
+/// The group is not empty and starts within `contacts` (the pass ignores any other).
+fn has_rows(contacts: &[ContactConstraint], group: &Range<usize>) -> bool {
+    !group.is_empty() && group.start < contacts.len()
 }
 
 #[cfg(test)]
