@@ -64,8 +64,8 @@ impl QueryCollider {
     }
 
     /// The records of a body's colliders (see [`QueryCollider::parts`]): `body` is the record
-    /// of the body as a whole, `shape` its compound, and `parts` says which collider each
-    /// subshape belongs to.
+    /// of the body as a whole (its shape the compound of its colliders), and `parts` says which
+    /// collider each subshape belongs to.
     fn colliders_of(body: &QueryCollider, parts: &CompoundParts) -> Vec<QueryCollider> {
         let Some(compound) = body.shape.as_compound() else {
             return Vec::new();
