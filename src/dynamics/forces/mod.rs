@@ -319,7 +319,6 @@ impl ForcesItem<'_, '_> {
         self.set_velocities(body.linear_velocity, w);
     }
 
-    /// The body as the impulse formula sees it.
     /// Resolves an inelastic impact of `other` (a body this one does not push back, such as a
     /// kinematic character seen as a body of its mass) on this body at world `point` with unit
     /// `normal` from `other` to this body, by the seed formula with `e = 0`
@@ -338,6 +337,7 @@ impl ForcesItem<'_, '_> {
         j
     }
 
+    /// The body as the impulse formula sees it.
     fn impulse_body(&self) -> ImpulseBody {
         let locked = self.locked.copied().unwrap_or_default();
         ImpulseBody {

@@ -30,15 +30,7 @@ pub(super) fn solve_row(
     let Some((bias, soft)) = block_row(c, bodies, solve) else {
         return (true, 0.0, false);
     };
-    // `K` with the support's response scaled, as `solve_block`'s `diagonal`.
-    let k = if c.angular {
-        row_inverse_mass(
-            [linear_a, linear_b],
-            [fa * c.rn_a.dot(c.ang_a), fb * c.rn_b.dot(c.ang_b)],
-        )
-    } else {
-        linear_a + linear_b
-    };
+    let k = held_diagonal(c, [linear_a, linear_b], [fa, fb]);
     if k <= 0.0 {
         return (true, 0.0, false);
     }

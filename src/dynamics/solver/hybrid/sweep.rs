@@ -211,18 +211,7 @@ pub(super) fn solve_block(
     let (fa, fb) = (response.a.angular, response.b.angular);
     let linear_a = response.a.along_normal * bodies[group[0].body_a].inverse_mass;
     let linear_b = response.b.along_normal * bodies[group[0].body_b].inverse_mass;
-    let linear = linear_a + linear_b;
-    // `K_ii` of row `c` with the support's response scaled.
-    let diagonal = |c: &ContactConstraint| {
-        if c.angular {
-            row_inverse_mass(
-                [linear_a, linear_b],
-                [fa * c.rn_a.dot(c.ang_a), fb * c.rn_b.dot(c.ang_b)],
-            )
-        } else {
-            linear
-        }
-    };
+    let diagonal = |c: &ContactConstraint| held_diagonal(c, [linear_a, linear_b], [fa, fb]);
     rows.clear();
     // Sums over the soft points: count, r x n and I^-1 (r x n) of each body, and the impulse.
     let mut count = 0u32;
@@ -336,6 +325,24 @@ pub(super) fn solve_block(
         }
     }
     (false, first, changed)
+}
+
+/// `K_ii` of row `c` with the support's response scaled: `linear` its bodies' linear terms
+/// (inverse masses times their response along the normal), `angular` the factors on their
+/// angular terms.
+#[inline]
+pub(super) fn held_diagonal(c: &ContactConstraint, linear: [f32; 2], angular: [f32; 2]) -> f32 {
+    if c.angular {
+        row_inverse_mass(
+            linear,
+            [
+                angular[0] * c.rn_a.dot(c.ang_a),
+                angular[1] * c.rn_b.dot(c.ang_b),
+            ],
+        )
+    } else {
+        linear[0] + linear[1]
+    }
 }
 
 /// A row's part in its block's solve (see [`manifold_sweep`]), from its separation `s` now:
