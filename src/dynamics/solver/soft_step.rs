@@ -87,7 +87,7 @@ pub(super) fn soft_substeps(
     dt: f32,
     stats: &mut SolverStats,
 ) {
-    let n = config.substeps.max(1);
+    let n = super::substeps(bodies, contacts, config, dt);
     let h = dt / n as f32;
     let inv_h = 1.0 / h;
     let hertz = config.contact_hertz.min(0.25 * inv_h);

@@ -177,7 +177,8 @@ impl SolverConfig {
     /// solver only ever sees valid settings; `last_good` must itself be valid (start from
     /// `SolverConfig::default()`).
     ///
-    /// Valid: `substeps` 1..=256, `iterations` 1..=10,000, `relax_iterations` 0..=10,000,
+    /// Valid: `substeps` and `max_substeps` 1..=256, `max_turn_per_substep` > 0 (infinite
+    /// allowed), `iterations` 1..=10,000, `relax_iterations` 0..=10,000,
     /// `max_propagation_sweeps` and `max_block_iterations` 1..=100,000 (larger counts are no
     /// longer settings but hangs); `velocity_tolerance`, `restitution_threshold`,
     /// `max_push_out_speed`, `contact_damping_ratio`, `linear_slop` finite and >= 0;
@@ -210,6 +211,22 @@ impl SolverConfig {
                 "SolverConfig::substeps",
                 self.substeps,
                 g.substeps,
+                count(1, 256),
+                "1..=256",
+            ),
+            max_turn_per_substep: field(
+                &mut e,
+                "SolverConfig::max_turn_per_substep",
+                self.max_turn_per_substep,
+                g.max_turn_per_substep,
+                |v: f32| v > 0.0,
+                "> 0 rad (infinite: never split)",
+            ),
+            max_substeps: field(
+                &mut e,
+                "SolverConfig::max_substeps",
+                self.max_substeps,
+                g.max_substeps,
                 count(1, 256),
                 "1..=256",
             ),
