@@ -168,6 +168,10 @@ fn settings() -> Vec<(&'static str, Setting)> {
     }
     vec![
         ("substeps", |w, v| solver(w).substeps = count(v)),
+        ("max_turn_per_substep", |w, v| {
+            solver(w).max_turn_per_substep = v
+        }),
+        ("max_substeps", |w, v| solver(w).max_substeps = count(v)),
         ("iterations", |w, v| solver(w).iterations = count(v)),
         ("relax_iterations", |w, v| {
             solver(w).relax_iterations = count(v)

@@ -84,6 +84,29 @@ fn narrow_phase_config_replaces_each_bad_float_field() {
     assert_eq!(valid, c);
 }
 
+/// `max_turn_per_substep` must be positive; infinite is valid (never split a step).
+#[test]
+fn solver_config_turn_per_substep() {
+    let last = SolverConfig::default();
+    for bad in [f32::NAN, f32::NEG_INFINITY, -1.0, 0.0] {
+        let c = SolverConfig {
+            max_turn_per_substep: bad,
+            ..SolverConfig::default()
+        };
+        let (valid, errors) = c.validated(&last);
+        assert_eq!(valid, last, "{bad}");
+        assert_eq!(errors.len(), 1, "{bad}: {errors:?}");
+        assert!(errors[0].contains(&format!("SolverConfig::max_turn_per_substep = {bad:?}")));
+    }
+    for good in [f32::INFINITY, 1e30, 1e-6, 0.25] {
+        let c = SolverConfig {
+            max_turn_per_substep: good,
+            ..SolverConfig::default()
+        };
+        assert_eq!(c.validated(&last), (c.clone(), Vec::new()), "{good}");
+    }
+}
+
 #[test]
 fn solver_config_replaces_bad_counts() {
     let last = SolverConfig::default();
@@ -93,10 +116,11 @@ fn solver_config_replaces_bad_counts() {
         max_propagation_sweeps: 0,
         max_block_iterations: 0,
         relax_iterations: 0,
+        max_substeps: 257,
         ..SolverConfig::default()
     };
     let (valid, errors) = c.validated(&last);
-    assert_eq!(errors.len(), 4, "{errors:?}");
+    assert_eq!(errors.len(), 5, "{errors:?}");
     assert_eq!(
         valid,
         SolverConfig {
