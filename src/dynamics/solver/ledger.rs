@@ -1,6 +1,8 @@
 //! Restitution's energy ledger: how much a bounce may give back, per island of the step
 //! (Stronge's energetic coefficient of restitution, summed over coupled contacts).
 
+use bevy::math::Vec3;
+
 use super::body::{Motion, SolverBody};
 use super::contact::ContactConstraint;
 
@@ -38,6 +40,8 @@ pub struct RestitutionLedger {
     /// Per island: `e^2` times the energy its rows took from approach, less the energy they
     /// gave to separation, J.
     budget: Vec<f32>,
+    /// Per body: its island's account, or [`NO_LEDGER`]; empty when there is no account.
+    body_account: Vec<u32>,
 }
 
 impl RestitutionLedger {
@@ -76,7 +80,46 @@ impl RestitutionLedger {
             }
             c.ledger = account[r];
         }
-        RestitutionLedger { budget }
+        let body_account = if budget.is_empty() {
+            Vec::new()
+        } else {
+            (0..bodies.len())
+                .map(|i| account[root(&mut parent, i) as usize])
+                .collect()
+        };
+        RestitutionLedger {
+            budget,
+            body_account,
+        }
+    }
+
+    /// Whether any island keeps an account (else nothing needs recording).
+    pub fn is_open(&self) -> bool {
+        !self.budget.is_empty()
+    }
+
+    /// Charges each island's account with the energy a substep's split of gravity (with the
+    /// bodies' extra accelerations, `a`) and position integration added to its bodies:
+    /// `m h a.(v0 - v1) + m |a|^2 h^2 / 2` a body, where positive, with `v0` its velocity before
+    /// the substep's gravity (`before`) and `v1` the one its position is integrated with (now).
+    ///
+    /// Why: gravity raises a body's kinetic energy by `m a.v0 h + m |a|^2 h^2 / 2` and its
+    /// potential falls by `m a.v1 h` only as it moves; where a contact stops it in between, the
+    /// rows take the difference as approach energy, which a bounce would give back as if it had
+    /// been there before the step: a 3.5 kg ball at 27.6 m/s against a body on the floor, e = 1,
+    /// 41 Hz x 8, took 2.9 J a substep that way, and its world gained 22 J (0.3 %) in the step
+    /// (the energy property test, soft step, seed 1477).
+    pub fn charge_split(&mut self, bodies: &[SolverBody], before: &[Vec3], gravity: Vec3, h: f32) {
+        for ((b, &v0), &account) in bodies.iter().zip(before).zip(&self.body_account) {
+            if account == NO_LEDGER || b.inverse_mass == 0.0 {
+                continue;
+            }
+            let a = b.acceleration(gravity);
+            let excess = h * a.dot(v0 - b.linear_velocity) + 0.5 * a.length_squared() * h * h;
+            if excess > 0.0 {
+                self.budget[account as usize] -= excess / b.inverse_mass;
+            }
+        }
     }
 
     /// Records the work of a normal impulse that took row `c`'s normal velocity from `vn` to

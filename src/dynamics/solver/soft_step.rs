@@ -125,13 +125,23 @@ pub(super) fn soft_substeps(
     let skip = matches!(resting, Resting::Idle);
     let hybrid = matches!(resting, Resting::Manifolds(_));
     let tolerance = config.velocity_tolerance;
+    // Velocities before each substep's gravity, for the restitution ledger (see
+    // `RestitutionLedger::charge_split`).
+    let mut before: Vec<Vec3> = Vec::new();
     for substep in 0..n {
+        if settling.ledger.is_open() {
+            before.clear();
+            before.extend(bodies.iter().map(|b| b.linear_velocity));
+        }
         integrate_velocities(bodies, gravity, h);
         if !skip {
             warm_start(bodies, contacts, &mut settling.ledger);
             solve_rows(config.iterations.max(1), stats, || {
                 sweep(bodies, contacts, settling, Some(soft), None).done(tolerance)
             });
+        }
+        if settling.ledger.is_open() {
+            settling.ledger.charge_split(bodies, &before, gravity, h);
         }
         integrate_positions(bodies, gravity, h);
         if !skip {
