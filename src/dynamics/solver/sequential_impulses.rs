@@ -141,6 +141,7 @@ pub(super) fn rigid_substeps(
             b.impact_offset += (v - b.linear_velocity) * t + 0.5 * g * t * t;
             b.impact_rotation += (w - b.angular_velocity) * t;
         }
+        later_bounces(bodies, contacts, &arrivals, &bounced);
         integrate_positions(bodies, gravity, h);
         for (c, a) in contacts.iter_mut().zip(&arrivals) {
             c.total_impulse += c.normal_impulse;
@@ -320,6 +321,59 @@ fn row_speeds(c: &ContactConstraint, bodies: &[SolverBody]) -> [f32; 3] {
         ]
     } else {
         [normal, 0.0, 0.0]
+    }
+}
+
+/// A body that bounces on several rows in one substep, at different times, takes each row's
+/// impulse at that row's own time: the owed position of `rigid_substeps` gives the body's
+/// whole change of velocity at its earliest bounce `t_0`, so each later row's share, its
+/// normal and friction impulses' change `dv` (and `dw`) of the body, is moved back by what it
+/// would have added between `t_0` and the row's time `t`: `-dv (t - t_0)` of position and
+/// `-dw (t - t_0)` of rotation.
+///
+/// Why: a 465 kg sphere with e = 1 falling at 8.1 m/s met a 0.5 kg box 3.1 ms into a 15.2 ms
+/// step and the floor 6.3 ms into it; with the whole 16.1 m/s of the floor's bounce given from
+/// the box's time, the sphere left 5.1 cm higher than its path and its world rose 212 J, 1.1%
+/// of its energy (the energy property test, sequential impulses and Jacobi, seed 3571, once
+/// the box's speculative contact was found at all).
+fn later_bounces(
+    bodies: &mut [SolverBody],
+    contacts: &[ContactConstraint],
+    arrivals: &[Arrival],
+    bounced: &[(usize, f32, Vec3, Vec3)],
+) {
+    if bounced.is_empty() {
+        return;
+    }
+    for (c, a) in contacts.iter().zip(arrivals) {
+        if a.bounce.is_nan() || a.time <= 0.0 {
+            continue;
+        }
+        for (i, sign, side) in [(c.body_a, -1.0f32, 0), (c.body_b, 1.0, 1)] {
+            let Some(&(_, first, _, _)) = bounced.iter().find(|e| e.0 == i) else {
+                continue;
+            };
+            let late = a.time - first;
+            if late <= 0.0 {
+                continue;
+            }
+            let b = &mut bodies[i];
+            let ang = if side == 0 { c.ang_a } else { c.ang_b };
+            let mut impulse = c.normal_impulse * c.normal;
+            let mut turn = if c.angular {
+                c.normal_impulse * ang
+            } else {
+                Vec3::ZERO
+            };
+            if c.friction > 0.0 {
+                for k in 0..2 {
+                    impulse += c.tangent_impulse[k] * c.tangents[k];
+                    turn += c.tangent_impulse[k] * c.tangent_ang[side][k];
+                }
+            }
+            b.impact_offset -= sign * b.inverse_mass * impulse * late;
+            b.impact_rotation -= sign * turn * late;
+        }
     }
 }
 
