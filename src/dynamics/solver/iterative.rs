@@ -89,7 +89,9 @@ impl Settling {
     }
 
     /// One row-by-row sweep over `contacts`: for each row with an effective mass, `row` gives
-    /// its normal velocity and its new accumulated normal impulse (already clamped), or `None`
+    /// its normal velocity as the ledger measures it (the row's own, or less the gravity after
+    /// a bounce: see [`ledger_velocity`](super::sequential_impulses::ledger_velocity)) and its
+    /// new accumulated normal impulse (already clamped), or `None`
     /// to leave it, from the row, its index, the latest velocities and the ledger; the change is
     /// then accepted (see [`accept`](Self::accept)).
     #[inline]

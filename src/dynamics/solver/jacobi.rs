@@ -6,7 +6,7 @@ use super::body::{Motion, SolverBody};
 use super::contact::{ContactConstraint, solve_friction};
 use super::iterative::Sweep;
 use super::ledger::{NO_LEDGER, RestitutionLedger};
-use super::sequential_impulses::{Arrival, RigidRows};
+use super::sequential_impulses::{Arrival, RigidRows, ledger_bounce, ledger_velocity};
 use crate::impulse::row_inverse_mass;
 
 /// How many contacts touch each body (for Jacobi mass splitting).
@@ -48,7 +48,7 @@ pub fn jacobi_sweep(
             continue;
         }
         let vn = c.normal_velocity(bodies);
-        let target = rows.target(c, bodies, ledger.limited_bounce(c, arrival.bounce, vn));
+        let target = rows.target(c, bodies, ledger_bounce(c, arrival, ledger, vn));
         let mass = if split {
             split_mass(c, bodies, counts)
         } else {
@@ -69,9 +69,14 @@ pub fn jacobi_sweep(
             settled &= !shared(c.body_a) && !shared(c.body_b);
         }
     }
-    for (c, &(delta, vn)) in contacts.iter().zip(deltas.iter()) {
+    for ((c, &(delta, vn)), arrival) in contacts.iter().zip(deltas.iter()).zip(arrivals) {
         if delta != 0.0 && c.ledger != NO_LEDGER {
-            ledger.record_shared(c, delta, vn, c.normal_velocity(bodies));
+            ledger.record_shared(
+                c,
+                delta,
+                ledger_velocity(arrival, vn),
+                ledger_velocity(arrival, c.normal_velocity(bodies)),
+            );
         }
     }
     for c in contacts.iter_mut().filter(|c| c.friction > 0.0) {

@@ -196,7 +196,7 @@ impl RestitutionLedger {
 }
 
 /// The root of `i` in the union-find forest `parent`, halving the path on the way.
-fn root(parent: &mut [u32], i: usize) -> u32 {
+pub(super) fn root(parent: &mut [u32], i: usize) -> u32 {
     let mut i = i as u32;
     while parent[i as usize] != i {
         let up = parent[parent[i as usize] as usize];
