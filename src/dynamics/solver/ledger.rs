@@ -49,16 +49,8 @@ impl RestitutionLedger {
     /// row its island's ([`ContactConstraint::ledger`]); every other row gets [`NO_LEDGER`].
     /// Islands are joined through dynamic bodies only, numbered in contact order.
     pub fn new(bodies: &[SolverBody], contacts: &mut [ContactConstraint]) -> Self {
-        let dynamic = |i: usize| bodies[i].motion == Motion::Dynamic;
-        let mut parent: Vec<u32> = (0..bodies.len() as u32).collect();
-        for c in contacts.iter() {
-            if dynamic(c.body_a) && dynamic(c.body_b) {
-                let (a, b) = (root(&mut parent, c.body_a), root(&mut parent, c.body_b));
-                if a != b {
-                    parent[a.max(b) as usize] = a.min(b);
-                }
-            }
-        }
+        let mut parent = Vec::new();
+        join_islands(bodies, contacts, &mut parent);
         let mut account = vec![NO_LEDGER; bodies.len()];
         let mut budget = Vec::new();
         for c in contacts.iter_mut() {
@@ -66,14 +58,10 @@ impl RestitutionLedger {
             if c.restitution <= 0.0 || c.normal_mass == 0.0 {
                 continue;
             }
-            let body = if dynamic(c.body_a) {
-                c.body_a
-            } else if dynamic(c.body_b) {
-                c.body_b
-            } else {
+            let Some(r) = contact_island(bodies, c, &mut parent) else {
                 continue;
             };
-            let r = root(&mut parent, body) as usize;
+            let r = r as usize;
             if account[r] == NO_LEDGER {
                 account[r] = budget.len() as u32;
                 budget.push(0.0);
@@ -192,6 +180,43 @@ impl RestitutionLedger {
         } else {
             bounce.min(self.bounce_limit(c, vn))
         }
+    }
+}
+
+/// Resets `parent` to one set per body and joins the sets through contacts between dynamic
+/// bodies: the islands of the step, as a union-find forest (see [`root`]).
+pub(super) fn join_islands(
+    bodies: &[SolverBody],
+    contacts: &[ContactConstraint],
+    parent: &mut Vec<u32>,
+) {
+    let dynamic = |i: usize| bodies[i].motion == Motion::Dynamic;
+    parent.clear();
+    parent.extend(0..bodies.len() as u32);
+    for c in contacts {
+        if dynamic(c.body_a) && dynamic(c.body_b) {
+            let (a, b) = (root(parent, c.body_a), root(parent, c.body_b));
+            if a != b {
+                parent[a.max(b) as usize] = a.min(b);
+            }
+        }
+    }
+}
+
+/// The island (its root in `parent`, from [`join_islands`]) of contact `c`'s dynamic body
+/// (body A's if both are); `None` if neither is dynamic.
+pub(super) fn contact_island(
+    bodies: &[SolverBody],
+    c: &ContactConstraint,
+    parent: &mut [u32],
+) -> Option<u32> {
+    let dynamic = |i: usize| bodies[i].motion == Motion::Dynamic;
+    if dynamic(c.body_a) {
+        Some(root(parent, c.body_a))
+    } else if dynamic(c.body_b) {
+        Some(root(parent, c.body_b))
+    } else {
+        None
     }
 }
 

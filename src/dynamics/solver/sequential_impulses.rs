@@ -11,7 +11,7 @@ use super::body::{Motion, SolverBody, integrate_positions, integrate_velocities}
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::iterative::{Settling, Sweep};
 use super::jacobi::{contact_counts, jacobi_sweep};
-use super::ledger::{RestitutionLedger, root};
+use super::ledger::{RestitutionLedger, contact_island, join_islands};
 use super::propagation::{self, time_of_impact};
 use super::push_out::PushOut;
 use super::{SolverConfig, SolverMethod, SolverStats};
@@ -231,36 +231,18 @@ impl CarriedImpulses {
                 }
             }
         }
-        let dynamic = |i: usize| bodies[i].motion == Motion::Dynamic;
-        self.parent.clear();
-        self.parent.extend(0..bodies.len() as u32);
-        for c in contacts.iter() {
-            if dynamic(c.body_a) && dynamic(c.body_b) {
-                let (a, b) = (
-                    root(&mut self.parent, c.body_a),
-                    root(&mut self.parent, c.body_b),
-                );
-                if a != b {
-                    self.parent[a.max(b) as usize] = a.min(b);
-                }
-            }
-        }
+        join_islands(bodies, contacts, &mut self.parent);
         self.work.clear();
         self.work.resize(bodies.len(), (0.0, 0.0));
         for (c, u0) in contacts.iter().zip(&self.speeds) {
             let l = carried(c);
-            if l == [0.0; 3] || !(dynamic(c.body_a) || dynamic(c.body_b)) {
+            if l == [0.0; 3] {
                 continue;
             }
+            let Some(island) = contact_island(bodies, c, &mut self.parent) else {
+                continue;
+            };
             let u1 = row_speeds(c, bodies);
-            let island = root(
-                &mut self.parent,
-                if dynamic(c.body_a) {
-                    c.body_a
-                } else {
-                    c.body_b
-                },
-            );
             let work = &mut self.work[island as usize];
             for k in 0..3 {
                 work.0 += l[k] as f64 * u0[k] as f64;
@@ -268,17 +250,12 @@ impl CarriedImpulses {
             }
         }
         for c in contacts.iter_mut() {
-            if carried(c) == [0.0; 3] || !(dynamic(c.body_a) || dynamic(c.body_b)) {
+            if carried(c) == [0.0; 3] {
                 continue;
             }
-            let island = root(
-                &mut self.parent,
-                if dynamic(c.body_a) {
-                    c.body_a
-                } else {
-                    c.body_b
-                },
-            );
+            let Some(island) = contact_island(bodies, c, &mut self.parent) else {
+                continue;
+            };
             let (linear, quadratic) = self.work[island as usize];
             if linear + quadratic <= 0.0 {
                 continue;
