@@ -133,19 +133,20 @@ pub(crate) fn substeps(
     dt: f32,
 ) -> u32 {
     let n = config.substeps.max(1);
-    let spin = |i: usize| {
+    // The turn over the step: the spin's, and the one an impact owes the body.
+    let turn = |i: usize| {
         let b = &bodies[i];
         if b.motion == Motion::Dynamic && !b.isotropic {
-            b.angular_velocity.length()
+            b.angular_velocity.length() * dt + b.impact_rotation.length()
         } else {
             0.0
         }
     };
-    let fastest = contacts
+    let largest = contacts
         .iter()
-        .map(|c| spin(c.body_a).max(spin(c.body_b)))
+        .map(|c| turn(c.body_a).max(turn(c.body_b)))
         .fold(0.0f32, f32::max);
-    let needed = (fastest * dt / config.max_turn_per_substep).ceil();
+    let needed = (largest / config.max_turn_per_substep).ceil();
     if needed > n as f32 {
         (needed.min(u32::MAX as f32) as u32).min(config.max_substeps.max(n))
     } else {

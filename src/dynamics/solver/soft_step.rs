@@ -6,7 +6,7 @@ use bevy::prelude::*;
 
 use crate::impulse::row_impulse;
 
-use super::body::{SolverBody, integrate_positions, integrate_velocities};
+use super::body::{SolverBody, integrate_positions_owing, integrate_velocities};
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::hybrid::{Block, ManifoldSolve, manifold_sweep};
 use super::iterative::{Settling, Sweep};
@@ -143,7 +143,7 @@ pub(super) fn soft_substeps(
         if settling.ledger.is_open() {
             settling.ledger.charge_split(bodies, &before, gravity, h);
         }
-        integrate_positions(bodies, gravity, h);
+        integrate_positions_owing(bodies, gravity, h, 1.0 / (n - substep) as f32);
         if !skip {
             // The rows' `I^-1 (r x n)` at the inertia the bodies turned to, for the relax
             // pass and the next substep (see `refresh_inertia`).

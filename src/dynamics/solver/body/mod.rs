@@ -324,10 +324,31 @@ fn skew64(v: DVec3) -> DMat3 {
 /// A dynamic body whose inertia is not isotropic has its world inverse inertia refreshed at the
 /// new orientation (its gyroscopic torque is applied in [`integrate_velocities`]).
 pub fn integrate_positions(bodies: &mut [SolverBody], gravity: Vec3, h: f32) {
+    integrate_positions_owing(bodies, gravity, h, 1.0);
+}
+
+/// [`integrate_positions`] turning a body by only `share` (in `(0, 1]`) of the rotation owed to
+/// its impacts, and leaving the rest owed: the soft substeps spread it over the substeps left in
+/// the step (`1 / (n - k)` in substep `k` of `n`), so that a large owed turn does not turn a body
+/// in one substep past what its contact rows, linear in its turn, describe (see
+/// [`SolverConfig::max_turn_per_substep`](super::SolverConfig::max_turn_per_substep)). The owed
+/// displacement is added whole in the first substep, as before: spread, its last part pushed a
+/// landing cube into the ground in the step's last substep, after the rows could answer (the
+/// three-cube column at 30 Hz x 4 sank 3.2 mm against its 1.3 mm bound).
+pub fn integrate_positions_owing(bodies: &mut [SolverBody], gravity: Vec3, h: f32, share: f32) {
     let parabola = -0.5 * gravity * h * h;
+    let owed = |v: &mut Vec3| {
+        if share >= 1.0 {
+            std::mem::take(v)
+        } else {
+            let part = *v * share;
+            *v -= part;
+            part
+        }
+    };
     for body in bodies.iter_mut().filter(|b| b.motion != Motion::Static) {
         let offset = std::mem::take(&mut body.impact_offset);
-        let turn = std::mem::take(&mut body.impact_rotation);
+        let turn = owed(&mut body.impact_rotation);
         let mut dp = body.linear_velocity * h + offset;
         if body.ballistic {
             if body.extra_acceleration == Vec3::ZERO {
