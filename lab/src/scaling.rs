@@ -15,10 +15,12 @@
 //! a timed step, averaged. The memory figures need the counting allocator ([`crate::alloc`]),
 //! which the lab binary installs. Written to `scaling.csv` and `scaling.md`.
 
+use std::collections::HashMap;
 use std::io;
 use std::path::Path;
 use std::time::Instant;
 
+use bevy::math::{IVec3, Vec3};
 use impact3d::prelude::SolverConfig;
 use impact3d::scenes as shared;
 
@@ -27,7 +29,7 @@ use crate::alloc;
 use crate::engines;
 use crate::measure::median;
 use crate::report::machine_and_date;
-use crate::scenes::{Check, Kind, Scene};
+use crate::scenes::{BodyState, Check, Kind, Scene, Shape};
 use crate::sweep::{AVIAN_DEFAULT_SUBSTEPS, EngineKind, RAPIER_DEFAULT_ITERATIONS, RunConfig};
 
 /// The step rate of every run.
@@ -85,7 +87,7 @@ impl Plan {
                 pour: vec![1000, 4000, 16_000],
                 pour_settle: 2.0,
                 pour_steps: 60,
-                rounds: 2,
+                rounds: 3,
             },
             Mode::Quick => Plan {
                 flight: vec![1000, 4000, 10_000],
@@ -229,6 +231,10 @@ pub struct ScaleRow {
     pub allocs_per_step: f64,
     /// The largest body speed after the last timed step, m/s (for the pour: has it landed?).
     pub max_speed: f32,
+    /// How many other spheres a sphere touches (centres closer than two radii plus 1 cm)
+    /// after the last timed step, on average: the pile's contact density, which grows with its
+    /// depth (walls and floor not counted).
+    pub neighbours: f64,
 }
 
 impl ScaleRow {
@@ -305,6 +311,11 @@ fn run_one(
     engine.read(&mut states);
     assert_eq!(states.len(), n, "every body is read");
     let max_speed = states.iter().map(|s| s.linvel.length()).fold(0.0, f32::max);
+    let radius = match spec.dynamic().next().map(|b| &b.shape) {
+        Some(&Shape::Ball(r)) => r,
+        _ => unreachable!("both scenes are spheres"),
+    };
+    let neighbours = 2.0 * touching_pairs(&states, 2.0 * radius + 0.01) as f64 / n as f64;
     drop(engine);
     ScaleRow {
         family,
@@ -317,7 +328,35 @@ fn run_one(
         bytes_per_body: held as f64 / n as f64,
         allocs_per_step: calls as f64 / steps.max(1) as f64,
         max_speed,
+        neighbours,
     }
+}
+
+/// Pairs of bodies whose centres are closer than `reach` (a grid of cells `reach` wide).
+fn touching_pairs(states: &[BodyState], reach: f32) -> usize {
+    let cell = |p: Vec3| (p / reach).floor().as_ivec3();
+    let mut grid: HashMap<IVec3, Vec<usize>> = HashMap::new();
+    for (i, s) in states.iter().enumerate() {
+        grid.entry(cell(s.position)).or_default().push(i);
+    }
+    let mut pairs = 0;
+    for (i, s) in states.iter().enumerate() {
+        let home = cell(s.position);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let Some(others) = grid.get(&(home + IVec3::new(dx, dy, dz))) else {
+                        continue;
+                    };
+                    pairs += others
+                        .iter()
+                        .filter(|&&j| j > i && states[j].position.distance(s.position) < reach)
+                        .count();
+                }
+            }
+        }
+    }
+    pairs
 }
 
 /// Time per body at the largest size over that at the smallest, per engine and scene: the
@@ -375,7 +414,10 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
          issue 8's 21 m walled box, N = {}: the timed window of {} steps starts {} s after the \
          top layer would have fallen freely to the floor (`sqrt(2 top / g) + {} s`: the \
          warm-up column), when the bodies have landed (`max speed` is the largest body speed \
-         after the window).\n\n\
+         after the window: landed spheres can still roll on the pile and the floor; \
+         `neighbours` is how many other spheres a sphere touches then, on average). The box \
+         is the same at every N, so a larger pour is a deeper pile with more contacts per \
+         body.\n\n\
          ms/step is the median wall time of one physics step over the timed steps (as in the \
          rest of the lab: one run of the Bevy schedule the plugin steps in, or one Rapier \
          `PhysicsPipeline::step`); us/body is that divided by N.\n\n",
@@ -410,12 +452,12 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
         );
     }
     out.push_str(
-        "| scene | engine | N | warm-up steps | timed steps | ms/step | spread | us/body | bytes/body | allocs/step | max speed (m/s) |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | engine | N | warm-up steps | timed steps | ms/step | spread | us/body | bytes/body | allocs/step | max speed (m/s) | neighbours |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         out.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {:.3} | {:.0} % | {:.3} | {:.0} | {:.1} | {:.2} |\n",
+            "| {} | {} | {} | {} | {} | {:.3} | {:.0} % | {:.3} | {:.0} | {:.1} | {:.2} | {:.2} |\n",
             r.family.name(),
             r.engine,
             r.n,
@@ -427,6 +469,7 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
             r.bytes_per_body,
             r.allocs_per_step,
             r.max_speed,
+            r.neighbours,
         ));
     }
     out.push_str(
@@ -444,7 +487,7 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
 }
 
 /// The CSV header of `scaling.csv`.
-pub const CSV_HEADER: &str = "scene,engine,n,warm_up_steps,timed_steps,ms_per_step,ms_spread,us_per_body,bytes_per_body,allocs_per_step,max_speed";
+pub const CSV_HEADER: &str = "scene,engine,n,warm_up_steps,timed_steps,ms_per_step,ms_spread,us_per_body,bytes_per_body,allocs_per_step,max_speed,neighbours";
 
 /// Writes `scaling.csv` and `scaling.md` into `out`.
 pub fn write(
@@ -457,7 +500,7 @@ pub fn write(
     let mut csv = format!("{CSV_HEADER}\n");
     for r in rows {
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.family.name(),
             r.engine,
             r.n,
@@ -469,6 +512,7 @@ pub fn write(
             r.bytes_per_body,
             r.allocs_per_step,
             r.max_speed,
+            r.neighbours,
         ));
     }
     std::fs::create_dir_all(out)?;

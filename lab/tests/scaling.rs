@@ -36,6 +36,11 @@ fn smoke_scaling_writes_one_row_per_engine_and_size() {
             "{r:?}"
         );
         assert!(r.max_speed.is_finite(), "{r:?}");
+        match r.family {
+            Family::Flight => assert_eq!(r.neighbours, 0.0, "no contact in free flight: {r:?}"),
+            // One layer at the smoke sizes: it may land without a sphere touching another.
+            Family::Pour => assert!(r.neighbours >= 0.0, "{r:?}"),
+        }
         assert_eq!(r.steps, plan.steps(r.family));
         assert_eq!(r.warm_up, plan.warm_up(r.family, r.n));
     }
