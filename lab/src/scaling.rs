@@ -399,20 +399,20 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
     let method = SolverConfig::default().method;
     let mut out = format!(
         "# Scaling: time and memory per body (issue 11)\n\n\
-         {}. Command: `{command}`.\n\n\
+         {machine}. Command: `{command}`.\n\n\
          Each engine at its defaults at {HZ} Hz, sleeping off in all three: impact3d's default \
-         `SolverConfig` ({method:?}, {} substeps x {} iteration), avian3d ({AVIAN_DEFAULT_SUBSTEPS} \
+         `SolverConfig` ({method:?}, {substeps} substeps x {iterations} iteration(s)), avian3d ({AVIAN_DEFAULT_SUBSTEPS} \
          substeps) and Rapier ({RAPIER_DEFAULT_ITERATIONS} solver iterations) as the lab sets \
          them up for every scene (restitution and friction per body with the `Max` combine rule, \
          avian3d's restitution threshold at impact3d's 0.5 m/s). One thread. The whole plan ran \
-         {} time(s), one round after the other; each row keeps its fastest round's median \
+         {rounds} time(s), one round after the other; each row keeps its fastest round's median \
          (`spread`: slowest round / fastest - 1).\n\n\
          - **flight**: N spheres (r = 0.25 m) on a 3D grid 2 m apart, moving at 0.1-0.35 m/s, \
-         no gravity, no contact (the lab's sparse scene), N = {}: {} warm-up steps, then {} \
+         no gravity, no contact (the lab's sparse scene), N = {flight_sizes}: {flight_warm_up} warm-up steps, then {flight_steps} \
          timed steps.\n\
          - **pour**: N spheres (r = 0.5 m, density 1, friction 0.5) dropped in layers into \
-         issue 8's 21 m walled box, N = {}: the timed window of {} steps starts {} s after the \
-         top layer would have fallen freely to the floor (`sqrt(2 top / g) + {} s`: the \
+         issue 8's 21 m walled box, N = {pour_sizes}: the timed window of {pour_steps} steps starts {settle} s after the \
+         top layer would have fallen freely to the floor (`sqrt(2 top / g) + {settle} s`: the \
          warm-up column), when the bodies have landed (`max speed` is the largest body speed \
          after the window: landed spheres can still roll on the pile and the floor; \
          `neighbours` is how many other spheres a sphere touches then, on average). The box \
@@ -421,17 +421,16 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
          ms/step is the median wall time of one physics step over the timed steps (as in the \
          rest of the lab: one run of the Bevy schedule the plugin steps in, or one Rapier \
          `PhysicsPipeline::step`); us/body is that divided by N.\n\n",
-        machine_and_date(),
-        plan.rounds,
-        SolverConfig::default().substeps,
-        SolverConfig::default().iterations,
-        sizes(Family::Flight),
-        plan.flight_warm_up,
-        plan.flight_steps,
-        sizes(Family::Pour),
-        plan.pour_steps,
-        plan.pour_settle,
-        plan.pour_settle,
+        machine = machine_and_date(),
+        rounds = plan.rounds,
+        substeps = SolverConfig::default().substeps,
+        iterations = SolverConfig::default().iterations,
+        flight_sizes = sizes(Family::Flight),
+        flight_warm_up = plan.flight_warm_up,
+        flight_steps = plan.flight_steps,
+        pour_sizes = sizes(Family::Pour),
+        pour_steps = plan.pour_steps,
+        settle = plan.pour_settle,
     );
     if counted {
         out.push_str(

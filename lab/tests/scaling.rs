@@ -67,5 +67,11 @@ fn smoke_scaling_writes_one_row_per_engine_and_size() {
     let md = std::fs::read_to_string(out.join("scaling.md")).unwrap();
     assert!(md.contains("| flight | impact3d | 100 |") && md.contains("| pour | impact3d | 200 |"));
     assert!(md.contains("under 1.3") && md.contains("global allocator"));
+    let usual = impact3d::prelude::SolverConfig::default();
+    assert!(md.contains(&format!(
+        "({:?}, {} substeps x {} iteration(s))",
+        usual.method, usual.substeps, usual.iterations
+    )));
+    assert!(md.contains(&format!("ran {} time(s)", plan.rounds)));
     std::fs::remove_dir_all(&out).unwrap();
 }
