@@ -22,7 +22,7 @@ const USAGE: &str =
   --queries      time only ray casts (10,000 rays into 10,000 static bodies)
   --scaling      time and memory per body against N, each engine at its defaults: spheres in
                  free flight (10,000, 40,000, 100,000) and poured into the walled box (1,000,
-                 4,000, 16,000); writes scaling.csv and scaling.md (about ten minutes)";
+                 4,000, 16,000); writes scaling.csv and scaling.md (three rounds, about 15 minutes)";
 
 fn main() -> ExitCode {
     let mut options = Options {
