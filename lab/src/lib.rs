@@ -9,12 +9,15 @@
 //! copied body by body for the peers) with its error metric and tolerance; [`engines`] puts each
 //! engine behind the [`engines::Engine`] trait; [`measure`] runs one configuration and times only
 //! the physics step; [`sweep`] lists the configurations; [`report`] writes CSV, SVG and the end
-//! table.
+//! table. Extra modes, each with its own report: [`sleeping`], [`queries`] and [`scaling`]
+//! (time and memory per body against the number of bodies, counted by [`alloc`]).
 
+pub mod alloc;
 pub mod engines;
 pub mod measure;
 pub mod queries;
 pub mod report;
+pub mod scaling;
 pub mod scenes;
 pub mod sleeping;
 pub mod sweep;

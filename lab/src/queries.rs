@@ -156,6 +156,7 @@ fn time_rays(
 /// Casts `count` rays through each engine (avian3d only with `peers`), `rounds` passes each.
 pub fn run(count: usize, rounds: usize, peers: bool) -> Vec<QueryRow> {
     let rays = rays(count);
+    #[cfg_attr(not(feature = "peers"), allow(unused_mut))]
     let mut rows = vec![impact3d(&rays, rounds)];
     #[cfg(feature = "peers")]
     if peers {
