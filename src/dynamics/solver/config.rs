@@ -95,9 +95,10 @@ pub struct SolverConfig {
     /// Default 4.
     pub substeps: u32,
     /// Largest turn of a body in contact over one substep, rad: a step in which a dynamic,
-    /// non-isotropic body with a contact spins at `w` runs `ceil(w dt / max_turn_per_substep)`
-    /// substeps if that is more than `substeps`, up to `max_substeps` (soft step, hybrid,
-    /// sequential impulses, Jacobi). Infinite: never more than `substeps`. Default 0.25.
+    /// non-isotropic body with a contact spins at `w` and is owed a turn `t` by the step's
+    /// impacts runs `ceil((|w| dt + |t|) / max_turn_per_substep)` substeps if that is more than
+    /// `substeps`, up to `max_substeps` (soft step and hybrid; the owed turn is then spread over
+    /// the substeps). Infinite: never more than `substeps`. Default 0.25.
     ///
     /// Why: a contact's rows are linear in the body's turn, and a body's kinetic energy at a
     /// given angular momentum depends on its orientation unless its inertia is the same about

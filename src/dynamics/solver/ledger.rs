@@ -221,7 +221,7 @@ pub(super) fn contact_island(
 }
 
 /// The root of `i` in the union-find forest `parent`, halving the path on the way.
-pub(super) fn root(parent: &mut [u32], i: usize) -> u32 {
+fn root(parent: &mut [u32], i: usize) -> u32 {
     let mut i = i as u32;
     while parent[i as usize] != i {
         let up = parent[parent[i as usize] as usize];
