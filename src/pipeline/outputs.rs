@@ -22,7 +22,14 @@ pub struct CandidatePairs {
     /// Per pair: its contacts are only detected (touching state and collision messages), never
     /// solved: a sensor is in it, or neither body is dynamic or asleep.
     pub(super) detect_only: Vec<bool>,
+    /// [`CandidatePairs::set`]'s buffer of kept pairs, kept between steps so that a steady
+    /// step allocates nothing.
+    kept: Vec<KeptPair>,
 }
+
+/// A kept pair of [`CandidatePairs::set`]: its entities, its body indices in their order,
+/// detect-only.
+type KeptPair = ((Entity, Entity), (usize, usize), bool);
 
 impl CandidatePairs {
     /// The pairs as entities `(a, b)`, `a < b`, sorted.
@@ -68,26 +75,23 @@ impl CandidatePairs {
         state: &PhysicsState,
         overlapping: impl IntoIterator<Item = (usize, usize)>,
     ) {
-        /// A kept pair: its entities, its body indices in their order, detect-only.
-        type Kept = ((Entity, Entity), (usize, usize), bool);
-        let mut keyed: Vec<Kept> = overlapping
-            .into_iter()
-            .filter_map(|(i, j)| {
-                let detect_only = state.pair_kind(i, j)? == PairKind::DetectOnly;
-                let (ei, ej) = (state.entities[i], state.entities[j]);
-                Some(if ei < ej {
-                    ((ei, ej), (i, j), detect_only)
-                } else {
-                    ((ej, ei), (j, i), detect_only)
-                })
+        let mut keyed = std::mem::take(&mut self.kept);
+        keyed.clear();
+        keyed.extend(overlapping.into_iter().filter_map(|(i, j)| {
+            let detect_only = state.pair_kind(i, j)? == PairKind::DetectOnly;
+            let (ei, ej) = (state.entities[i], state.entities[j]);
+            Some(if ei < ej {
+                ((ei, ej), (i, j), detect_only)
+            } else {
+                ((ej, ei), (j, i), detect_only)
             })
-            .collect();
+        }));
         keyed.sort_unstable_by_key(|(k, _, _)| *k);
         self.pairs.clear();
         self.indices.clear();
         self.dormant.clear();
         self.detect_only.clear();
-        for (k, (i, j), detect_only) in keyed {
+        for &(k, (i, j), detect_only) in &keyed {
             self.pairs.push(k);
             self.indices.push((i, j));
             let dormant = if detect_only {
@@ -102,6 +106,7 @@ impl CandidatePairs {
             self.dormant.push(dormant);
             self.detect_only.push(detect_only);
         }
+        self.kept = keyed;
     }
 }
 

@@ -14,6 +14,11 @@ use crate::dynamics::solver::ContactConstraint;
 pub struct ContactPairs {
     pairs: Vec<ContactPair>,
     resting: Vec<ContactPair>,
+    /// Buffers kept between steps, so that a steady step allocates nothing: the pairs' last
+    /// list while [`retain_candidates`](Self::retain_candidates) builds the new one, and
+    /// [`update_touching`](Self::update_touching)'s flags.
+    spare: Vec<ContactPair>,
+    touching: Vec<bool>,
 }
 
 impl ContactPairs {
@@ -110,12 +115,14 @@ impl ContactPairs {
         started: &mut Vec<(Entity, Entity)>,
         ended: &mut Vec<(Entity, Entity)>,
     ) {
-        let mut touching: Vec<bool> = self
-            .pairs
-            .iter()
-            .zip(dormant)
-            .map(|(pair, &dormant)| dormant && pair.touching)
-            .collect();
+        let mut touching = std::mem::take(&mut self.touching);
+        touching.clear();
+        touching.extend(
+            self.pairs
+                .iter()
+                .zip(dormant)
+                .map(|(pair, &dormant)| dormant && pair.touching),
+        );
         for (c, &(p, _, _)) in rows.iter().zip(keys) {
             if c.separation <= touch || c.total_impulse > 0.0 {
                 touching[p as usize] = true;
@@ -124,7 +131,7 @@ impl ContactPairs {
         for &p in detected {
             touching[p as usize] = true;
         }
-        for (pair, now) in self.pairs.iter_mut().zip(touching) {
+        for (pair, &now) in self.pairs.iter_mut().zip(&touching) {
             match (pair.touching, now) {
                 (false, true) => started.push((pair.a, pair.b)),
                 (true, false) => ended.push((pair.a, pair.b)),
@@ -132,6 +139,7 @@ impl ContactPairs {
             }
             pair.touching = now;
         }
+        self.touching = touching;
     }
 
     /// Replaces the candidate pairs with `candidates` (sorted by `(a, b)`, `a < b`), keeping the
@@ -142,9 +150,10 @@ impl ContactPairs {
         candidates: &[(Entity, Entity)],
         mut removed: impl FnMut(&ContactPair),
     ) {
-        let old = std::mem::take(&mut self.pairs);
-        let mut old = old.into_iter().peekable();
+        let mut last = std::mem::replace(&mut self.pairs, std::mem::take(&mut self.spare));
+        self.pairs.clear();
         self.pairs.reserve(candidates.len());
+        let mut old = last.drain(..).peekable();
         for &(a, b) in candidates {
             while let Some(p) = old.next_if(|p| (p.a, p.b) < (a, b)) {
                 removed(&p);
@@ -157,6 +166,7 @@ impl ContactPairs {
         for p in old {
             removed(&p);
         }
+        self.spare = last;
     }
 }
 

@@ -53,9 +53,11 @@ pub fn update_narrow_phase(
     candidates: Res<CandidatePairs>,
     mut rows: ResMut<ContactRows>,
     mut events: ResMut<StepEvents>,
+    mut scratch: Local<Scratch>,
 ) {
     let state = &mut *state;
     let rows = &mut *rows;
+    let Scratch { pressed, geometry } = &mut *scratch;
     events.ended.clear();
     events.started.clear();
     events.colliders_ended.clear();
@@ -67,24 +69,33 @@ pub fn update_narrow_phase(
     rows.keys.clear();
     rows.detected.clear();
     rows.detected_parts.clear();
-    let pressed = pressed_bodies(state, &candidates);
+    pressed_bodies(state, &candidates, pressed);
     // Contacts are generated with the shapes scaled to the length unit (see
     // `ContactPair::update`); a pair with a shape parry cannot scale keeps metres.
     let unit = binary_unit(state.settings.length_unit);
     let mut unit_shapes = std::mem::take(&mut state.unit_shapes);
     let scaled = unit_scaled_shapes(state, &candidates, &mut unit_shapes, unit);
-    let geometry = all_pair_geometry(state, &candidates, &scaled, unit, &mut pairs);
+    all_pair_geometry(state, &candidates, &scaled, unit, &mut pairs, geometry);
     for (pair_index, ((pair, &(ia, ib)), geometry)) in pairs
         .pairs_mut()
         .iter_mut()
         .zip(&candidates.indices)
-        .zip(geometry)
+        .zip(geometry.drain(..))
         .enumerate()
     {
-        pair_rows(state, rows, &pressed, pair, pair_index, (ia, ib), geometry);
+        pair_rows(state, rows, pressed, pair, pair_index, (ia, ib), geometry);
     }
     unit_shapes.prune();
     state.unit_shapes = unit_shapes;
+}
+
+/// The narrow phase's buffers, kept between steps so that a steady step allocates nothing.
+#[derive(Default)]
+pub struct Scratch {
+    /// [`pressed_bodies`]'s flags.
+    pressed: Vec<bool>,
+    /// [`all_pair_geometry`]'s results.
+    geometry: Vec<Geometry>,
 }
 
 /// Drops the pairs that are no longer candidates: each that was touching has ended, and unless
@@ -116,9 +127,10 @@ fn drop_ended_pairs(
     });
 }
 
-/// The bodies a heavier dynamic body may press (see [`lighter_face_normal`]).
-fn pressed_bodies(state: &PhysicsState, candidates: &CandidatePairs) -> Vec<bool> {
-    let mut pressed = vec![false; state.bodies.len()];
+/// The bodies a heavier dynamic body may press (see [`lighter_face_normal`]), into `pressed`.
+fn pressed_bodies(state: &PhysicsState, candidates: &CandidatePairs, pressed: &mut Vec<bool>) {
+    pressed.clear();
+    pressed.resize(state.bodies.len(), false);
     for (&(i, j), &detect_only) in candidates.indices.iter().zip(&candidates.detect_only) {
         let (a, b) = (&state.bodies[i], &state.bodies[j]);
         if !detect_only
@@ -133,7 +145,6 @@ fn pressed_bodies(state: &PhysicsState, candidates: &CandidatePairs) -> Vec<bool
             }] = true;
         }
     }
-    pressed
 }
 
 /// Each candidate pair's shapes scaled to the length unit `unit` (none at all when it is 1);
@@ -159,40 +170,45 @@ fn unit_scaled_shapes(
     }
 }
 
-/// The manifolds of every pair, independently of the others: in parallel on Bevy's compute
-/// task pool, in chunks whose results come back in pair order, so the step is the same on
-/// any number of threads.
+/// The manifolds of every pair, independently of the others, into `out` in pair order: in
+/// parallel on Bevy's compute task pool, in chunks whose results come back in pair order, so
+/// the step is the same on any number of threads. Without feature `parallel`, or with pairs
+/// for one task only, on this thread: the task pool's scope allocates for its tasks every
+/// step, which a one-thread build has no use for.
 fn all_pair_geometry(
     state: &PhysicsState,
     candidates: &CandidatePairs,
     scaled: &[Option<(SharedShape, SharedShape)>],
     unit: f32,
     pairs: &mut ContactPairs,
-) -> Vec<Geometry> {
+    out: &mut Vec<Geometry>,
+) {
+    let geometry = |pair_index: usize, pair: &mut ContactPair| {
+        pair_geometry(
+            state,
+            candidates,
+            scaled.get(pair_index).and_then(Option::as_ref),
+            unit,
+            pair_index,
+            pair,
+        )
+    };
+    out.clear();
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    let per_task = pairs_per_task(pairs.pairs_mut().len(), pool.thread_num());
-    pairs
-        .pairs_mut()
-        .par_chunk_map_mut(pool, per_task, |chunk, pairs| {
-            pairs
-                .iter_mut()
-                .enumerate()
-                .map(|(k, pair)| {
-                    let pair_index = chunk * per_task + k;
-                    pair_geometry(
-                        state,
-                        candidates,
-                        scaled.get(pair_index).and_then(Option::as_ref),
-                        unit,
-                        pair_index,
-                        pair,
-                    )
-                })
-                .collect::<Vec<_>>()
-        })
-        .into_iter()
-        .flatten()
-        .collect()
+    let mut pairs = pairs.pairs_mut();
+    let per_task = pairs_per_task(pairs.len(), pool.thread_num());
+    if !cfg!(feature = "parallel") || per_task >= pairs.len() {
+        out.extend(pairs.iter_mut().enumerate().map(|(k, p)| geometry(k, p)));
+        return;
+    }
+    let chunks = pairs.par_chunk_map_mut(pool, per_task, |chunk, pairs| {
+        pairs
+            .iter_mut()
+            .enumerate()
+            .map(|(k, pair)| geometry(chunk * per_task + k, pair))
+            .collect::<Vec<_>>()
+    });
+    out.extend(chunks.into_iter().flatten());
 }
 
 /// The contact rows of candidate pair `pair_index` (bodies `ia` and `ib`) from what the
