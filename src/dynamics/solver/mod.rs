@@ -113,6 +113,22 @@ pub fn step(
             for c in contacts.iter_mut() {
                 c.normal_impulse = c.total_impulse;
             }
+            // Penetration is pushed out by split impulses, as under sequential impulses: the
+            // propagation pass stops approach, not overlap, so whatever a step leaves (a pass
+            // cut short at its bound, rounding) stayed, and under a pile it grew: a sphere at
+            // the bottom of a 1,000-sphere pour sank 15 cm into the floor in 250 steps and
+            // through it by step 1,041.
+            let rows = sequential_impulses::RigidRows {
+                inv_h: 1.0 / dt,
+                baumgarte: config.baumgarte,
+                slop: config.linear_slop,
+                restitution_threshold: config.restitution_threshold,
+                max_push_out: config.max_push_out_speed,
+            };
+            let mut push_out = push_out::PushOut::default();
+            if push_out.solve(bodies, contacts, &rows, config.iterations, None) {
+                push_out.displace(bodies, dt);
+            }
             integrate_positions(bodies, gravity, dt);
         }
         SolverMethod::SequentialImpulses | SolverMethod::Jacobi => {
