@@ -67,26 +67,24 @@ pub(super) fn shock_order(
             .filter(|(_, t)| **t)
             .map(|(r, _)| (contacts[r.start].body_a, contacts[r.start].body_b)),
     );
-    // Sorted by (lower level, supported body), ties in manifold order: the keys are made unique
-    // by the manifold's index, so the blocks themselves are moved once.
-    let mut keys: Vec<(u32, usize, usize)> = ranges
+    // Sorted by (lower level, supported body), ties in manifold order.
+    let lower = |k: usize| {
+        let c = &contacts[ranges[k].start];
+        level[c.body_a].min(level[c.body_b])
+    };
+    let upper = |k: usize| {
+        let c = &contacts[ranges[k].start];
+        match level[c.body_a].cmp(&level[c.body_b]) {
+            std::cmp::Ordering::Less => Some(c.body_b),
+            std::cmp::Ordering::Greater => Some(c.body_a),
+            std::cmp::Ordering::Equal => None,
+        }
+    };
+    let order = sorted_by_level(ranges.len(), bodies.len(), lower, upper);
+    let mut blocks: Vec<Block> = order
         .iter()
-        .enumerate()
-        .map(|(k, range)| {
-            let c = &contacts[range.start];
-            let (la, lb) = (level[c.body_a], level[c.body_b]);
-            let upper = match la.cmp(&lb) {
-                std::cmp::Ordering::Less => c.body_b,
-                std::cmp::Ordering::Greater => c.body_a,
-                std::cmp::Ordering::Equal => usize::MAX,
-            };
-            (la.min(lb), upper, k)
-        })
-        .collect();
-    keys.sort_unstable();
-    let mut blocks: Vec<Block> = keys
-        .iter()
-        .map(|&(_, _, k)| {
+        .map(|&k| {
+            let k = k as usize;
             let range = ranges[k].clone();
             let c = &contacts[range.start];
             let support = match level[c.body_a].cmp(&level[c.body_b]) {
@@ -110,6 +108,49 @@ pub(super) fn shock_order(
     release_frictional_groups(bodies.len(), contacts, &mut blocks);
     carried_loads(bodies, contacts, &mut blocks);
     blocks
+}
+
+/// The indices `0..count` of manifolds sorted by (`lower(k)`, `upper(k)`), no support
+/// (`None`) after every body, ties in index order: the order of `sort_unstable` on the keys
+/// `(lower, upper, k)`, made by two stable counting sorts (by supported body, then by level).
+/// Why: a comparison sort of the keys was a third of the shock order's cost in a settled pile
+/// (0.2 ms a step for 2,000 spheres); each counting sort is one pass over the manifolds and
+/// one over the bodies. A level is at most `bodies - 1` or `u32::MAX` (unreached), so
+/// `bodies + 1` buckets keep both keys in order.
+pub(super) fn sorted_by_level(
+    count: usize,
+    bodies: usize,
+    lower: impl Fn(usize) -> u32,
+    upper: impl Fn(usize) -> Option<usize>,
+) -> Vec<u32> {
+    let by_upper = counting_sort(0..count as u32, bodies + 1, |k| {
+        upper(k as usize).unwrap_or(bodies)
+    });
+    counting_sort(by_upper.iter().copied(), bodies + 1, |k| {
+        (lower(k as usize) as usize).min(bodies)
+    })
+}
+
+/// `items` stably sorted by `bucket` (each below `buckets`).
+fn counting_sort(
+    items: impl Iterator<Item = u32> + Clone,
+    buckets: usize,
+    bucket: impl Fn(u32) -> usize,
+) -> Vec<u32> {
+    let mut start = vec![0u32; buckets + 1];
+    for k in items.clone() {
+        start[bucket(k) + 1] += 1;
+    }
+    for i in 0..buckets {
+        start[i + 1] += start[i];
+    }
+    let mut sorted = vec![0u32; start[buckets] as usize];
+    for k in items {
+        let b = bucket(k);
+        sorted[start[b] as usize] = k;
+        start[b] += 1;
+    }
+    sorted
 }
 
 /// Each body's level: 0 for a static or kinematic body, one more than its lowest neighbour

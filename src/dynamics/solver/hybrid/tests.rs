@@ -429,3 +429,34 @@ fn manifold_block_corner_a_hair_apart_sinks_with_the_rest() {
     let w = bodies[1].angular_velocity.length();
     assert!(w <= 2e-4, "turned at {w} rad/s");
 }
+
+/// `sorted_by_level` gives the order of a comparison sort of the keys `(lower, upper, k)`
+/// (no support last), over pseudo-random keys with many ties and unreached levels.
+#[test]
+fn counting_sort_matches_the_key_sort() {
+    let (count, bodies) = (500, 40);
+    let mut seed = 12345u32;
+    let mut next = |n: u32| {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) % n
+    };
+    let keys: Vec<(u32, Option<usize>)> = (0..count)
+        .map(|_| {
+            let lower = match next(8) {
+                0 => u32::MAX,
+                _ => next(6),
+            };
+            let upper = (next(4) > 0).then(|| next(bodies as u32) as usize);
+            (lower, upper)
+        })
+        .collect();
+    let mut expected: Vec<(u32, usize, usize)> = keys
+        .iter()
+        .enumerate()
+        .map(|(k, &(lower, upper))| (lower, upper.unwrap_or(usize::MAX), k))
+        .collect();
+    expected.sort_unstable();
+    let order = sorted_by_level(count, bodies, |k| keys[k].0, |k| keys[k].1);
+    let expected: Vec<u32> = expected.iter().map(|&(_, _, k)| k as u32).collect();
+    assert_eq!(order, expected);
+}
