@@ -104,8 +104,11 @@ pub(super) fn shock_order(
             }
         })
         .collect();
-    support_holds(bodies, contacts, &mut blocks, touch);
-    release_frictional_groups(bodies.len(), contacts, &mut blocks);
+    // Which blocks are released is known before the holds: `support_holds` then skips the
+    // holds that no held block depends on.
+    let released = frictional_groups(bodies.len(), contacts, &blocks);
+    support_holds(bodies, contacts, &mut blocks, touch, &released);
+    release_frictional_groups(&mut blocks, &released);
     carried_loads(bodies, contacts, &mut blocks);
     blocks
 }
@@ -223,11 +226,21 @@ pub(super) fn levels(
 /// pyramid needs its supports held) are left as they are. Only touching manifolds
 /// ([`Block::touching`]) count as supports: a speculative one (a 1 mm die's contact with the
 /// ground through the die it rests on) is not a second support.
-pub(super) fn release_frictional_groups(
+pub(super) fn release_frictional_groups(blocks: &mut [Block], released: &[bool]) {
+    for (block, _) in blocks.iter_mut().zip(released).filter(|(_, r)| **r) {
+        block.support = Support::Neither;
+        block.hold = 0.0;
+        block.push = Vec3::ZERO;
+    }
+}
+
+/// Which of `blocks` [`release_frictional_groups`] releases: those whose supported body has
+/// more than one touching support, with friction on any of them.
+pub(super) fn frictional_groups(
     bodies: usize,
     contacts: &[ContactConstraint],
-    blocks: &mut [Block],
-) {
+    blocks: &[Block],
+) -> Vec<bool> {
     let mut supports = vec![(0u32, false); bodies];
     for block in blocks.iter().filter(|b| b.touching) {
         if let Some(upper) = block.upper(contacts) {
@@ -235,15 +248,14 @@ pub(super) fn release_frictional_groups(
             supports[upper].1 |= contacts[block.range.start].friction > 0.0;
         }
     }
-    for block in blocks.iter_mut() {
-        if let Some(upper) = block.upper(contacts)
-            && supports[upper].0 > 1
-            && supports[upper].1
-        {
-            block.support = Support::Neither;
-            block.hold = 0.0;
-        }
-    }
+    blocks
+        .iter()
+        .map(|block| {
+            block
+                .upper(contacts)
+                .is_some_and(|upper| supports[upper].0 > 1 && supports[upper].1)
+        })
+        .collect()
 }
 
 /// Some row of the manifold can push and is within `touch` (m) of touching.
