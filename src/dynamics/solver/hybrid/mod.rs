@@ -86,9 +86,7 @@ pub(super) fn solve(
             dt,
             stats,
         );
-        for (block, range) in blocks.iter().zip(origin) {
-            contacts[range].copy_from_slice(&ordered[block.range.clone()]);
-        }
+        from_block_order(bodies, contacts, &ordered, &blocks, &origin);
     }
 }
 

@@ -279,3 +279,33 @@ pub(super) fn in_block_order(
     }
     (ordered, origin)
 }
+
+/// Writes back into `contacts` what the resting phase changed in `ordered` (laid out by
+/// [`in_block_order`], `origin` each block's range in `contacts`): the impulses, and the whole
+/// row where [`refresh_inertia`](crate::dynamics::solver::refresh_inertia) re-derived its
+/// angular terms. Nothing else of a row changes in the resting phase. Why not the whole row
+/// always: the rows are large (over 200 bytes), and copying them back was about half the cost
+/// of the block order (0.25 ms a step for 2,000 spheres).
+pub(super) fn from_block_order(
+    bodies: &[SolverBody],
+    contacts: &mut [ContactConstraint],
+    ordered: &[ContactConstraint],
+    blocks: &[Block],
+    origin: &[Range<usize>],
+) {
+    for (block, range) in blocks.iter().zip(origin) {
+        for (c, solved) in contacts[range.clone()]
+            .iter_mut()
+            .zip(&ordered[block.range.clone()])
+        {
+            if solved.inertia_turns(bodies) {
+                *c = *solved;
+            } else {
+                c.normal_impulse = solved.normal_impulse;
+                c.tangent_impulse = solved.tangent_impulse;
+                c.max_normal_impulse = solved.max_normal_impulse;
+                c.total_impulse = solved.total_impulse;
+            }
+        }
+    }
+}
