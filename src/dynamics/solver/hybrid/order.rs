@@ -35,21 +35,25 @@ use super::*;
 /// body has the same level and every manifold is solved two-body, conserving momentum exactly.
 ///
 /// Without a consistent partition of `contacts` into `manifolds` (a caller of [`step`](crate::dynamics::solver::step) may pass
-/// none), each contact is its own block.
+/// none), each contact is its own block. The blocks are written into `blocks` (its earlier
+/// contents dropped, its memory kept).
 pub(super) fn shock_order(
+    blocks: &mut Vec<Block>,
     bodies: &[SolverBody],
     contacts: &[ContactConstraint],
     manifolds: &[Range<usize>],
     touch: f32,
-) -> Vec<Block> {
+) {
     let covered = manifolds.iter().map(|r| r.len()).sum::<usize>() == contacts.len()
         && manifolds
             .iter()
             .all(|r| r.end <= contacts.len() && !r.is_empty());
-    let ranges: Vec<Range<usize>> = if covered {
-        manifolds.to_vec()
+    let singles: Vec<Range<usize>>;
+    let ranges: &[Range<usize>] = if covered {
+        manifolds
     } else {
-        (0..contacts.len()).map(|i| i..i + 1).collect()
+        singles = (0..contacts.len()).map(|i| i..i + 1).collect();
+        &singles
     };
     // Only touching manifolds (a point within `touch`) make levels: a speculative contact is no
     // support. (With it, a die resting on another had the level of the lower die: at 1 mm the
@@ -81,36 +85,33 @@ pub(super) fn shock_order(
         }
     };
     let order = sorted_by_level(ranges.len(), bodies.len(), lower, upper);
-    let mut blocks: Vec<Block> = order
-        .iter()
-        .map(|&k| {
-            let k = k as usize;
-            let range = ranges[k].clone();
-            let c = &contacts[range.start];
-            let support = match level[c.body_a].cmp(&level[c.body_b]) {
-                std::cmp::Ordering::Less => Support::A,
-                std::cmp::Ordering::Greater => Support::B,
-                std::cmp::Ordering::Equal => Support::Neither,
-            };
-            Block {
-                range,
-                support,
-                hold: 0.0,
-                push: Vec3::ZERO,
-                load: 0.0,
-                lever: 0.0,
-                spread: 0.0,
-                touching: touching[k],
-            }
-        })
-        .collect();
+    blocks.clear();
+    blocks.extend(order.iter().map(|&k| {
+        let k = k as usize;
+        let range = ranges[k].clone();
+        let c = &contacts[range.start];
+        let support = match level[c.body_a].cmp(&level[c.body_b]) {
+            std::cmp::Ordering::Less => Support::A,
+            std::cmp::Ordering::Greater => Support::B,
+            std::cmp::Ordering::Equal => Support::Neither,
+        };
+        Block {
+            range,
+            support,
+            hold: 0.0,
+            push: Vec3::ZERO,
+            load: 0.0,
+            lever: 0.0,
+            spread: 0.0,
+            touching: touching[k],
+        }
+    }));
     // Which blocks are released is known before the holds: `support_holds` then skips the
     // holds that no held block depends on.
-    let released = frictional_groups(bodies.len(), contacts, &blocks);
-    support_holds(bodies, contacts, &mut blocks, touch, &released);
-    release_frictional_groups(&mut blocks, &released);
-    carried_loads(bodies, contacts, &mut blocks);
-    blocks
+    let released = frictional_groups(bodies.len(), contacts, blocks);
+    support_holds(bodies, contacts, blocks, touch, &released);
+    release_frictional_groups(blocks, &released);
+    carried_loads(bodies, contacts, blocks);
 }
 
 /// The indices `0..count` of manifolds sorted by (`lower(k)`, `upper(k)`), no support
@@ -264,20 +265,22 @@ pub(super) fn touches(rows: &[ContactConstraint], touch: f32) -> bool {
         .any(|c| c.separation <= touch && c.normal_mass > 0.0)
 }
 
-/// Copies `contacts` in the order of `blocks` and points each block at its copy. Returns the
-/// copy and each block's range in `contacts`.
+/// Copies `contacts` in the order of `blocks` into `ordered` and points each block at its
+/// copy; `origin` gets each block's range in `contacts` (both buffers' earlier contents
+/// dropped, their memory kept).
 pub(super) fn in_block_order(
     contacts: &[ContactConstraint],
     blocks: &mut [Block],
-) -> (Vec<ContactConstraint>, Vec<Range<usize>>) {
-    let mut ordered = Vec::with_capacity(contacts.len());
-    let mut origin = Vec::with_capacity(blocks.len());
+    ordered: &mut Vec<ContactConstraint>,
+    origin: &mut Vec<Range<usize>>,
+) {
+    ordered.clear();
+    origin.clear();
     for block in blocks.iter_mut() {
         let start = ordered.len();
         ordered.extend_from_slice(&contacts[block.range.clone()]);
         origin.push(std::mem::replace(&mut block.range, start..ordered.len()));
     }
-    (ordered, origin)
 }
 
 /// Writes back into `contacts` what the resting phase changed in `ordered` (laid out by
