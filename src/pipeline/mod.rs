@@ -136,6 +136,8 @@ pub struct PhysicsState {
     /// Sleeping-marked bodies read every step: quarantined ones, and those that are not
     /// dynamic (they take part in the step as any other body).
     read_every_step: Vec<Entity>,
+    /// Scratch: the solver's buffers, kept between steps.
+    solver_scratch: crate::dynamics::solver::SolverScratch,
     /// Steps since the propagation bound warning was last logged.
     steps_since_bound_warning: u32,
     /// The shapes scaled to the length unit, for contact generation.

@@ -371,13 +371,14 @@ pub fn solve_contacts(
     let (rows, events) = (&mut *rows, &mut *events);
     let state = &mut *state;
     let config = &state.settings.config;
-    *stats = solver::step(
+    *stats = solver::step_with_scratch(
         &mut state.bodies,
         &mut rows.contacts,
         &rows.pair_ranges,
         config,
         state.settings.gravity.0,
         state.dt,
+        &mut state.solver_scratch,
     );
     // Translation locks and speed caps, for the bodies that have them (see
     // `crate::dynamics::forces`).

@@ -67,6 +67,36 @@ pub fn step(
     gravity: Vec3,
     dt: f32,
 ) -> SolverStats {
+    step_with_scratch(
+        bodies,
+        contacts,
+        manifolds,
+        config,
+        gravity,
+        dt,
+        &mut SolverScratch::default(),
+    )
+}
+
+/// Memory the solve keeps from one step to the next (see [`step_with_scratch`]): only its
+/// buffers' allocations carry over, never their contents.
+#[derive(Clone, Debug, Default)]
+pub struct SolverScratch {
+    hybrid: hybrid::HybridScratch,
+}
+
+/// [`step`], with its buffers kept in `scratch` between calls: the same results, without
+/// allocating them again every step (the hybrid method's copy of the contacts in block order
+/// is as large as the contacts).
+pub fn step_with_scratch(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactConstraint],
+    manifolds: &[Range<usize>],
+    config: &SolverConfig,
+    gravity: Vec3,
+    dt: f32,
+    scratch: &mut SolverScratch,
+) -> SolverStats {
     let mut stats = SolverStats {
         bodies: bodies.len() as u32,
         contacts: contacts.len() as u32,
@@ -93,9 +123,16 @@ pub fn step(
     prepare_contacts(bodies, contacts);
 
     match config.method {
-        SolverMethod::Hybrid => {
-            hybrid::solve(bodies, contacts, manifolds, config, gravity, dt, &mut stats)
-        }
+        SolverMethod::Hybrid => hybrid::solve(
+            bodies,
+            contacts,
+            manifolds,
+            config,
+            gravity,
+            dt,
+            &mut stats,
+            &mut scratch.hybrid,
+        ),
         SolverMethod::SoftStep => {
             soft_step::solve(bodies, contacts, config, gravity, dt, &mut stats)
         }

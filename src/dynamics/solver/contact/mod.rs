@@ -300,16 +300,25 @@ pub fn prepare_contacts(bodies: &[SolverBody], contacts: &mut [ContactConstraint
 /// test, sequential impulses, seed 107), although the row itself reflected its normal velocity
 /// exactly.
 pub fn refresh_inertia(bodies: &[SolverBody], contacts: &mut [ContactConstraint]) {
-    let turned = |b: &SolverBody| b.motion == Motion::Dynamic && !b.isotropic;
     for c in contacts.iter_mut() {
-        let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
-        if !(turned(a) || turned(b)) {
+        if !c.inertia_turns(bodies) {
             continue;
         }
+        let (a, b) = (&bodies[c.body_a], &bodies[c.body_b]);
         c.prepare_normal_row(a, b);
         if c.friction > 0.0 {
             c.prepare_tangent_rows(a, b);
         }
+    }
+}
+
+impl ContactConstraint {
+    /// Whether [`refresh_inertia`] re-derives this row: it touches a dynamic body whose
+    /// inertia is not isotropic.
+    #[inline]
+    pub fn inertia_turns(&self, bodies: &[SolverBody]) -> bool {
+        let turned = |b: &SolverBody| b.motion == Motion::Dynamic && !b.isotropic;
+        turned(&bodies[self.body_a]) || turned(&bodies[self.body_b])
     }
 }
 

@@ -32,9 +32,22 @@ use row::*;
 use support::*;
 pub use sweep::*;
 
+/// The resting phase's buffers, kept from step to step (in [`SolverScratch`](super::SolverScratch)):
+/// their contents are rebuilt every step; only their memory is reused.
+#[derive(Clone, Debug, Default)]
+pub struct HybridScratch {
+    /// The blocks in shock order.
+    blocks: Vec<Block>,
+    /// The contacts in block order.
+    ordered: Vec<ContactConstraint>,
+    /// Each block's range in the step's contacts.
+    origin: Vec<Range<usize>>,
+}
+
 /// The hybrid method's solve of one step (see [`super::step`]): the impact phase, then the
 /// resting phase over the manifolds as blocks in shock order (or only gravity and integration
 /// when no contact can take an impulse).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn solve(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
@@ -43,6 +56,7 @@ pub(super) fn solve(
     gravity: Vec3,
     dt: f32,
     stats: &mut SolverStats,
+    scratch: &mut HybridScratch,
 ) {
     let report = propagate(
         bodies,
@@ -71,24 +85,26 @@ pub(super) fn solve(
             stats,
         );
     } else {
-        let mut blocks = shock_order(bodies, contacts, manifolds, config.linear_slop);
+        let HybridScratch {
+            blocks,
+            ordered,
+            origin,
+        } = scratch;
+        shock_order(blocks, bodies, contacts, manifolds, config.linear_slop);
         // The sweeps visit the blocks in shock order: lay the contacts out in that order, so
         // that they read them in sequence rather than all over the slice.
-        let (mut ordered, origin) = in_block_order(contacts, &mut blocks);
-        let resting = Resting::Manifolds(&blocks);
+        in_block_order(contacts, blocks, ordered, origin);
         soft_substeps(
             bodies,
-            &mut ordered,
-            resting,
+            ordered,
+            Resting::Manifolds(blocks),
             &mut Settling::default(),
             config,
             gravity,
             dt,
             stats,
         );
-        for (block, range) in blocks.iter().zip(origin) {
-            contacts[range].copy_from_slice(&ordered[block.range.clone()]);
-        }
+        from_block_order(bodies, contacts, ordered, blocks, origin);
     }
 }
 

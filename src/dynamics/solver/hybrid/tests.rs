@@ -5,6 +5,18 @@ use super::super::soft_step::soft_sweep;
 use super::*;
 use bevy::math::{BVec3, Mat3, Quat};
 
+/// `shock_order`'s blocks in a vector of their own.
+fn blocks_in_shock_order(
+    bodies: &[SolverBody],
+    contacts: &[ContactConstraint],
+    manifolds: &[Range<usize>],
+    touch: f32,
+) -> Vec<Block> {
+    let mut blocks = Vec::new();
+    shock_order(&mut blocks, bodies, contacts, manifolds, touch);
+    blocks
+}
+
 fn cube(motion: Motion, mass: f32) -> SolverBody {
     SolverBody::new(motion, Vec3::ZERO, Quat::IDENTITY).with_mass(
         1.0 / mass,
@@ -94,7 +106,7 @@ fn column_loads_are_the_mass_above() {
     ];
     let (mut contacts, ranges) = manifolds(&[(2, 3), (1, 2), (0, 1)]);
     prepare_contacts(&bodies, &mut contacts);
-    let blocks = shock_order(&bodies, &contacts, &ranges, 0.005);
+    let blocks = blocks_in_shock_order(&bodies, &contacts, &ranges, 0.005);
     let order: Vec<(usize, Support, f32)> = blocks
         .iter()
         .map(|b| (b.range.start, b.support, b.load))
@@ -124,7 +136,7 @@ fn shared_loads_split_between_supports() {
     ];
     let (mut contacts, ranges) = manifolds(&[(1, 3), (0, 1), (4, 1), (2, 3), (0, 2), (0, 4)]);
     prepare_contacts(&bodies, &mut contacts);
-    let blocks = shock_order(&bodies, &contacts, &ranges, 0.005);
+    let blocks = blocks_in_shock_order(&bodies, &contacts, &ranges, 0.005);
     let load = |start: usize| blocks.iter().find(|b| b.range.start == start).unwrap();
     assert_eq!(load(1).load, 2.0);
     assert_eq!(load(4).load, 2.0);
@@ -188,7 +200,7 @@ fn holds_follow_the_support_cone() {
     let hit = ContactConstraint::new(1, 2, Vec3::new(0.0, 0.5, 0.0) + 0.5 * n, n, 0.0, 0.0, 0.0);
     let mut contacts = [floor, hit];
     prepare_contacts(&bodies, &mut contacts);
-    let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
+    let blocks = blocks_in_shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
     let struck = blocks.iter().find(|b| b.range == (1..2)).unwrap();
     let c2 = theta.cos().powi(2);
     assert!((struck.hold - c2).abs() < 1e-6, "{}", struck.hold);
@@ -197,14 +209,14 @@ fn holds_follow_the_support_cone() {
     let column = ContactConstraint::new(1, 2, Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 0.0, 0.0, 0.0);
     let mut contacts = [floor, column];
     prepare_contacts(&bodies, &mut contacts);
-    let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
+    let blocks = blocks_in_shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
     let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
     assert!((top.hold - 1.0).abs() < 1e-6 && top.push.length() < 1e-6);
     // The lower ball only speculatively on the ground (a 1 cm gap): not held.
     let gap = ContactConstraint::new(0, 1, Vec3::ZERO, Vec3::Y, 0.01, 0.0, 0.0);
     let mut contacts = [gap, column];
     prepare_contacts(&bodies, &mut contacts);
-    let blocks = shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
+    let blocks = blocks_in_shock_order(&bodies, &contacts, &[0..1, 1..2], 0.005);
     let top = blocks.iter().find(|b| b.range == (1..2)).unwrap();
     assert_eq!(top.hold, 0.0);
 }
@@ -428,4 +440,35 @@ fn manifold_block_corner_a_hair_apart_sinks_with_the_rest() {
     assert!(v.iter().all(|&x| x < -1e-3), "the plane sinks: {v:?}");
     let w = bodies[1].angular_velocity.length();
     assert!(w <= 2e-4, "turned at {w} rad/s");
+}
+
+/// `sorted_by_level` gives the order of a comparison sort of the keys `(lower, upper, k)`
+/// (no support last), over pseudo-random keys with many ties and unreached levels.
+#[test]
+fn counting_sort_matches_the_key_sort() {
+    let (count, bodies) = (500, 40);
+    let mut seed = 12345u32;
+    let mut next = |n: u32| {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) % n
+    };
+    let keys: Vec<(u32, Option<usize>)> = (0..count)
+        .map(|_| {
+            let lower = match next(8) {
+                0 => u32::MAX,
+                _ => next(6),
+            };
+            let upper = (next(4) > 0).then(|| next(bodies as u32) as usize);
+            (lower, upper)
+        })
+        .collect();
+    let mut expected: Vec<(u32, usize, usize)> = keys
+        .iter()
+        .enumerate()
+        .map(|(k, &(lower, upper))| (lower, upper.unwrap_or(usize::MAX), k))
+        .collect();
+    expected.sort_unstable();
+    let order = sorted_by_level(count, bodies, |k| keys[k].0, |k| keys[k].1);
+    let expected: Vec<u32> = expected.iter().map(|&(_, _, k)| k as u32).collect();
+    assert_eq!(order, expected);
 }
