@@ -9,14 +9,14 @@ use super::ledger::{NO_LEDGER, RestitutionLedger};
 use super::sequential_impulses::{Arrival, RigidRows, ledger_bounce, ledger_velocity};
 use crate::impulse::row_inverse_mass;
 
-/// How many contacts touch each body (for Jacobi mass splitting).
-pub(super) fn contact_counts(bodies: usize, contacts: &[ContactConstraint]) -> Vec<u32> {
-    let mut counts = vec![0u32; bodies];
+/// How many contacts touch each body (for Jacobi mass splitting), into `counts`.
+pub(super) fn contact_counts(bodies: usize, contacts: &[ContactConstraint], counts: &mut Vec<u32>) {
+    counts.clear();
+    counts.resize(bodies, 0);
     for c in contacts {
         counts[c.body_a] += 1;
         counts[c.body_b] += 1;
     }
-    counts
 }
 
 /// One Jacobi sweep: every row computes its impulse from the same velocities, then all are

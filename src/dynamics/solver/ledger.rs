@@ -42,6 +42,10 @@ pub struct RestitutionLedger {
     budget: Vec<f32>,
     /// Per body: its island's account, or [`NO_LEDGER`]; empty when there is no account.
     body_account: Vec<u32>,
+    /// [`reset`](Self::reset)'s union-find forest and per-root accounts, kept for their
+    /// memory only.
+    parent: Vec<u32>,
+    account: Vec<u32>,
 }
 
 impl RestitutionLedger {
@@ -49,16 +53,30 @@ impl RestitutionLedger {
     /// row its island's ([`ContactConstraint::ledger`]); every other row gets [`NO_LEDGER`].
     /// Islands are joined through dynamic bodies only, numbered in contact order.
     pub fn new(bodies: &[SolverBody], contacts: &mut [ContactConstraint]) -> Self {
-        let mut parent = Vec::new();
-        join_islands(bodies, contacts, &mut parent);
-        let mut account = vec![NO_LEDGER; bodies.len()];
-        let mut budget = Vec::new();
+        let mut ledger = RestitutionLedger::default();
+        ledger.reset(bodies, contacts);
+        ledger
+    }
+
+    /// [`new`](Self::new) in place: the same accounts, in the memory of the last ones.
+    pub fn reset(&mut self, bodies: &[SolverBody], contacts: &mut [ContactConstraint]) {
+        let RestitutionLedger {
+            budget,
+            body_account,
+            parent,
+            account,
+        } = self;
+        join_islands(bodies, contacts, parent);
+        account.clear();
+        account.resize(bodies.len(), NO_LEDGER);
+        budget.clear();
+        body_account.clear();
         for c in contacts.iter_mut() {
             c.ledger = NO_LEDGER;
             if c.restitution <= 0.0 || c.normal_mass == 0.0 {
                 continue;
             }
-            let Some(r) = contact_island(bodies, c, &mut parent) else {
+            let Some(r) = contact_island(bodies, c, parent) else {
                 continue;
             };
             let r = r as usize;
@@ -68,17 +86,15 @@ impl RestitutionLedger {
             }
             c.ledger = account[r];
         }
-        let body_account = if budget.is_empty() {
-            Vec::new()
-        } else {
-            (0..bodies.len())
-                .map(|i| account[root(&mut parent, i) as usize])
-                .collect()
-        };
-        RestitutionLedger {
-            budget,
-            body_account,
+        if !budget.is_empty() {
+            body_account.extend((0..bodies.len()).map(|i| account[root(parent, i) as usize]));
         }
+    }
+
+    /// No account at all (as [`default`](Default::default)), keeping the memory.
+    pub fn close(&mut self) {
+        self.budget.clear();
+        self.body_account.clear();
     }
 
     /// Whether any island keeps an account (else nothing needs recording).

@@ -83,6 +83,9 @@ pub fn step(
 #[derive(Clone, Debug, Default)]
 pub struct SolverScratch {
     hybrid: hybrid::HybridScratch,
+    soft: soft_step::SoftScratch,
+    rigid: sequential_impulses::RigidScratch,
+    push_out: push_out::PushOut,
 }
 
 /// [`step`], with its buffers kept in `scratch` between calls: the same results, without
@@ -134,7 +137,15 @@ pub fn step_with_scratch(
             &mut scratch.hybrid,
         ),
         SolverMethod::SoftStep => {
-            soft_step::solve(bodies, contacts, config, gravity, dt, &mut stats)
+            soft_step::solve(
+                bodies,
+                contacts,
+                config,
+                gravity,
+                dt,
+                &mut stats,
+                &mut scratch.soft,
+            )
         }
         SolverMethod::Propagation => {
             integrate_velocities(bodies, gravity, dt);
@@ -162,14 +173,22 @@ pub fn step_with_scratch(
                 restitution_threshold: config.restitution_threshold,
                 max_push_out: config.max_push_out_speed,
             };
-            let mut push_out = push_out::PushOut::default();
+            let push_out = &mut scratch.push_out;
             if push_out.solve(bodies, contacts, &rows, config.iterations, None) {
                 push_out.displace(bodies, dt);
             }
             integrate_positions(bodies, gravity, dt);
         }
         SolverMethod::SequentialImpulses | SolverMethod::Jacobi => {
-            sequential_impulses::rigid_substeps(bodies, contacts, config, gravity, dt, &mut stats);
+            sequential_impulses::rigid_substeps(
+                bodies,
+                contacts,
+                config,
+                gravity,
+                dt,
+                &mut stats,
+                &mut scratch.rigid,
+            );
         }
     }
     stats.impacts = contacts.iter().filter(|c| c.impact).count() as u32;

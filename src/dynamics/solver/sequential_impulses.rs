@@ -16,6 +16,24 @@ use super::propagation::{self, time_of_impact};
 use super::push_out::PushOut;
 use super::{SolverConfig, SolverMethod, SolverStats};
 
+/// Sequential impulses' and Jacobi's buffers, kept from step to step: their contents are
+/// rebuilt every step; only their memory is reused.
+#[derive(Clone, Debug, Default)]
+pub struct RigidScratch {
+    /// Jacobi: how many rows touch each body.
+    counts: Vec<u32>,
+    /// Jacobi: a sweep's impulse changes and normal velocities.
+    deltas: Vec<(f32, f32)>,
+    push_out: PushOut,
+    /// The sweeps' settling marks and the restitution ledger.
+    settling: Settling,
+    arrivals: Vec<Arrival>,
+    /// Per bouncing body: the earliest time into the substep of its bounce, and its velocities
+    /// before the substep's solve.
+    bounced: Vec<(usize, f32, Vec3, Vec3)>,
+    carried: CarriedImpulses,
+}
+
 /// Sequential impulses or Jacobi, over `config.substeps` substeps.
 pub(super) fn rigid_substeps(
     bodies: &mut [SolverBody],
@@ -24,6 +42,7 @@ pub(super) fn rigid_substeps(
     gravity: Vec3,
     dt: f32,
     stats: &mut SolverStats,
+    scratch: &mut RigidScratch,
 ) {
     // Long on purpose: the substep loop reads as the stage list of one substep (integrate, take
     // the arrivals, record the bounces, warm start, iterate, push out, integrate, total), as
@@ -38,24 +57,24 @@ pub(super) fn rigid_substeps(
         max_push_out: config.max_push_out_speed,
     };
     let jacobi = config.method == SolverMethod::Jacobi;
-    let counts = if jacobi {
-        contact_counts(bodies.len(), contacts)
-    } else {
-        Vec::new()
-    };
-    let mut deltas = Vec::new();
-    let mut push_out = PushOut::default();
-    let mut settling = Settling {
-        ledger: RestitutionLedger::new(bodies, contacts),
-        ..Settling::default()
-    };
+    let RigidScratch {
+        counts,
+        deltas,
+        push_out,
+        settling,
+        arrivals,
+        bounced,
+        carried,
+    } = scratch;
+    if jacobi {
+        contact_counts(bodies.len(), contacts, counts);
+    }
+    settling.ledger.reset(bodies, contacts);
+    settling.friction_changed = false;
     // Restitution targets come from each row's approach at the start of its substep, before
     // the substep's gravity, and only for rows whose gap closes within it (see `arrival`).
-    let mut arrivals: Vec<Arrival> = Vec::with_capacity(contacts.len());
-    // Per body: the earliest time into the substep of a bounce it takes part in, and its
-    // velocities before the substep's solve.
-    let mut bounced: Vec<(usize, f32, Vec3, Vec3)> = Vec::new();
-    let mut carried = CarriedImpulses::default();
+    // `bounced`, per body: the earliest time into the substep of a bounce it takes part in, and
+    // its velocities before the substep's solve.
     for substep in 0..n {
         if substep > 0 {
             refresh_inertia(bodies, contacts);
@@ -85,7 +104,7 @@ pub(super) fn rigid_substeps(
         // under gravity gains the potential energy of that height: at 1/15 s an e = 0.8 ball
         // rose 0.15 m above its drop height (`step_sweep_sequential_impulses`).
         bounced.clear();
-        for (c, a) in contacts.iter().zip(&arrivals) {
+        for (c, a) in contacts.iter().zip(arrivals.iter()) {
             if a.bounce.is_nan() || a.time <= 0.0 {
                 continue;
             }
@@ -114,14 +133,14 @@ pub(super) fn rigid_substeps(
                     bodies,
                     contacts,
                     &rows,
-                    &arrivals,
-                    &counts,
+                    arrivals,
+                    counts,
                     config.mass_splitting,
-                    &mut deltas,
+                    deltas,
                     &mut settling.ledger,
                 )
             } else {
-                sequential_sweep(bodies, contacts, &rows, &arrivals, &mut settling)
+                sequential_sweep(bodies, contacts, &rows, arrivals, settling)
             };
             // Only an exact convergence ends the iterations early: the largest change is taken
             // over the whole world, so stopping at a tolerance would let one island's iteration
@@ -135,15 +154,15 @@ pub(super) fn rigid_substeps(
         if push_out.solve(bodies, contacts, &rows, config.iterations, jacobi_rows) {
             push_out.displace(bodies, h);
         }
-        for &(i, t, v, w) in &bounced {
+        for &(i, t, v, w) in bounced.iter() {
             let b = &mut bodies[i];
             let g = b.acceleration(gravity);
             b.impact_offset += (v - b.linear_velocity) * t + 0.5 * g * t * t;
             b.impact_rotation += (w - b.angular_velocity) * t;
         }
-        later_bounces(bodies, contacts, &arrivals, &bounced);
+        later_bounces(bodies, contacts, arrivals, bounced);
         integrate_positions(bodies, gravity, h);
-        for (c, a) in contacts.iter_mut().zip(&arrivals) {
+        for (c, a) in contacts.iter_mut().zip(arrivals.iter()) {
             c.total_impulse += c.normal_impulse;
             if a.impact && c.normal_impulse > 0.0 {
                 c.impact = true;

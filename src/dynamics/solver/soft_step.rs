@@ -8,10 +8,32 @@ use crate::impulse::row_impulse;
 
 use super::body::{SolverBody, integrate_positions_owing, integrate_velocities};
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
-use super::hybrid::{Block, ManifoldSolve, manifold_sweep};
+use super::hybrid::{Block, BlockRow, ManifoldSolve, manifold_sweep};
 use super::iterative::{Settling, Sweep};
 use super::ledger::RestitutionLedger;
 use super::{SolverConfig, SolverStats};
+
+/// The soft substeps' buffers (the soft step's and the hybrid's resting phase's), kept from
+/// step to step: their contents are rebuilt every step; only their memory is reused.
+#[derive(Clone, Debug, Default)]
+pub struct SoftScratch {
+    /// The sweeps' settling marks and the restitution ledger.
+    settling: Settling,
+    /// A manifold block's rows (see [`manifold_sweep`]).
+    rows: Vec<BlockRow>,
+    /// The bodies' velocities before a substep's gravity (see
+    /// [`RestitutionLedger::charge_split`]).
+    before: Vec<Vec3>,
+    /// The restitution pass's rows' impulses before their bounce (see [`apply_restitution`]).
+    resting: Vec<f32>,
+}
+
+impl SoftScratch {
+    /// No restitution ledger for the next substeps (as a new scratch has none).
+    pub(super) fn close_ledger(&mut self) {
+        self.settling.ledger.close();
+    }
+}
 
 /// The soft step's solve of one step (see [`super::step`]): the substeps, then the restitution
 /// pass.
@@ -22,16 +44,14 @@ pub(super) fn solve(
     gravity: Vec3,
     dt: f32,
     stats: &mut SolverStats,
+    scratch: &mut SoftScratch,
 ) {
-    let mut settling = Settling {
-        ledger: RestitutionLedger::new(bodies, contacts),
-        ..Settling::default()
-    };
+    scratch.settling.ledger.reset(bodies, contacts);
     soft_substeps(
         bodies,
         contacts,
         Resting::Rows,
-        &mut settling,
+        scratch,
         config,
         gravity,
         dt,
@@ -40,10 +60,11 @@ pub(super) fn solve(
     apply_restitution(
         bodies,
         contacts,
-        &mut settling.ledger,
+        &mut scratch.settling.ledger,
         config.restitution_threshold,
         config.max_block_iterations,
         config.velocity_tolerance,
+        &mut scratch.resting,
     );
 }
 
@@ -81,7 +102,7 @@ pub(super) fn soft_substeps(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
     resting: Resting,
-    settling: &mut Settling,
+    scratch: &mut SoftScratch,
     config: &SolverConfig,
     gravity: Vec3,
     dt: f32,
@@ -94,7 +115,13 @@ pub(super) fn soft_substeps(
     let soft = Softness::new(hertz, config.contact_damping_ratio, h);
     let omega = 2.0 * std::f32::consts::PI * hertz;
     let tilt_stiffness = omega * omega / gravity.length();
-    let mut rows = Vec::new();
+    let SoftScratch {
+        settling,
+        rows,
+        before,
+        ..
+    } = scratch;
+    settling.friction_changed = false;
     let mut sweep = |bodies: &mut [SolverBody],
                      contacts: &mut [ContactConstraint],
                      settling: &mut Settling,
@@ -110,7 +137,7 @@ pub(super) fn soft_substeps(
                 tolerance: config.velocity_tolerance,
                 tilt_stiffness,
             };
-            manifold_sweep(bodies, contacts, blocks, &solve, settling, &mut rows)
+            manifold_sweep(bodies, contacts, blocks, &solve, settling, rows)
         }
         Resting::Rows | Resting::Idle => soft_sweep(
             bodies,
@@ -127,7 +154,6 @@ pub(super) fn soft_substeps(
     let tolerance = config.velocity_tolerance;
     // Velocities before each substep's gravity, for the restitution ledger (see
     // `RestitutionLedger::charge_split`).
-    let mut before: Vec<Vec3> = Vec::new();
     for substep in 0..n {
         if settling.ledger.is_open() {
             before.clear();
@@ -141,7 +167,7 @@ pub(super) fn soft_substeps(
             });
         }
         if settling.ledger.is_open() {
-            settling.ledger.charge_split(bodies, &before, gravity, h);
+            settling.ledger.charge_split(bodies, before, gravity, h);
         }
         integrate_positions_owing(bodies, gravity, h, 1.0 / (n - substep) as f32);
         if !skip {
@@ -331,6 +357,7 @@ pub fn apply_restitution(
     threshold: f32,
     max_iterations: u32,
     tolerance: f32,
+    resting: &mut Vec<f32>,
 ) {
     let active = |c: &ContactConstraint| {
         c.restitution > 0.0
@@ -339,11 +366,13 @@ pub fn apply_restitution(
             && c.normal_mass > 0.0
     };
     // Each active row's impulse before its bounce: what the next step warm-starts.
-    let resting: Vec<f32> = contacts
-        .iter()
-        .filter(|c| active(c))
-        .map(|c| c.normal_impulse)
-        .collect();
+    resting.clear();
+    resting.extend(
+        contacts
+            .iter()
+            .filter(|c| active(c))
+            .map(|c| c.normal_impulse),
+    );
     let rows = resting.len();
     let passes = if rows > 1 { max_iterations.max(1) } else { 1 };
     for _ in 0..passes {
@@ -367,7 +396,7 @@ pub fn apply_restitution(
             break;
         }
     }
-    for (c, &before) in contacts.iter_mut().filter(|c| active(c)).zip(&resting) {
+    for (c, &before) in contacts.iter_mut().filter(|c| active(c)).zip(resting.iter()) {
         c.normal_impulse = c.normal_impulse.min(before);
     }
 }

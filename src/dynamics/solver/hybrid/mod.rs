@@ -12,7 +12,7 @@ use super::body::{Motion, SolverBody};
 use super::contact::{ContactConstraint, solve_friction};
 use super::iterative::{Settling, Sweep};
 use super::propagation::propagate;
-use super::soft_step::{Resting, Softness, soft_substeps};
+use super::soft_step::{Resting, SoftScratch, Softness, soft_substeps};
 use super::{SolverConfig, SolverStats, propagation_params};
 use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
@@ -42,6 +42,8 @@ pub struct HybridScratch {
     ordered: Vec<ContactConstraint>,
     /// Each block's range in the step's contacts.
     origin: Vec<Range<usize>>,
+    /// The soft substeps' buffers.
+    soft: SoftScratch,
 }
 
 /// The hybrid method's solve of one step (see [`super::step`]): the impact phase, then the
@@ -73,12 +75,14 @@ pub(super) fn solve(
     );
     stats.propagation_sweeps = report.sweeps;
     stats.propagation_bound_hit = report.bound_hit;
+    // The resting phase keeps no restitution ledger (its impacts are the impact phase's).
+    scratch.soft.close_ledger();
     if resting_phase_idle(bodies, contacts, config, gravity, dt) {
         soft_substeps(
             bodies,
             contacts,
             Resting::Idle,
-            &mut Settling::default(),
+            &mut scratch.soft,
             config,
             gravity,
             dt,
@@ -89,6 +93,7 @@ pub(super) fn solve(
             blocks,
             ordered,
             origin,
+            soft,
         } = scratch;
         shock_order(blocks, bodies, contacts, manifolds, config.linear_slop);
         // The sweeps visit the blocks in shock order: lay the contacts out in that order, so
@@ -98,7 +103,7 @@ pub(super) fn solve(
             bodies,
             ordered,
             Resting::Manifolds(blocks),
-            &mut Settling::default(),
+            soft,
             config,
             gravity,
             dt,
