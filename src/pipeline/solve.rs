@@ -50,16 +50,27 @@ impl Plugin for SolvePlugin {
 /// step at 60 Hz) meets the wall in a pose the start geometry does not describe, and every
 /// method but the hybrid one, which resolves impacts one at a time at their time of impact,
 /// let such a body through.
-fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs) {
+fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs, rewind: &mut Rewind) {
     let dt = state.dt;
-    let first = first_impacts(state, candidates);
-    let poses: Vec<(usize, Pose)> = first
-        .iter()
-        .enumerate()
-        .filter(|&(_, &t)| t < dt)
-        .map(|(i, &t)| (i, solved_motion(state, i).0.pose_at(t)))
-        .collect();
+    let Rewind { first, poses } = rewind;
+    first_impacts(state, candidates, first);
+    poses.clear();
+    poses.extend(
+        first
+            .iter()
+            .enumerate()
+            .filter(|&(_, &t)| t < dt)
+            .map(|(i, &t)| (i, solved_motion(state, i).0.pose_at(t))),
+    );
     put_back(state, poses);
+}
+
+/// [`stop_at_first_impact`]'s buffers, kept between steps so that a steady step allocates
+/// nothing: each body's first impact time and the poses bodies are put back at.
+#[derive(Default)]
+pub struct Rewind {
+    first: Vec<f32>,
+    poses: Vec<(usize, Pose)>,
 }
 
 /// The solved motion of each body as a rigid motion from its start pose: the centre of
@@ -104,15 +115,15 @@ fn sweeps_fast(state: &PhysicsState, i: usize) -> bool {
 }
 
 /// The time, s into the step, at which each fast body first touches one of its pairs more than
-/// `linear_slop` before the end of its sweep (`dt` where it does not); empty when no pair has a
-/// fast body.
-fn first_impacts(state: &PhysicsState, candidates: &CandidatePairs) -> Vec<f32> {
+/// `linear_slop` before the end of its sweep (`dt` where it does not), into `first`; empty when
+/// no pair has a fast body.
+fn first_impacts(state: &PhysicsState, candidates: &CandidatePairs, first: &mut Vec<f32>) {
     let dt = state.dt;
     let slop = state.settings.config.linear_slop;
     let n = state.bodies.len();
     let motion = |i: usize| solved_motion(state, i);
     let fast = |i: usize| sweeps_fast(state, i);
-    let mut first: Vec<f32> = Vec::new();
+    first.clear();
     for (k, &(ia, ib)) in candidates.indices.iter().enumerate() {
         // A detect-only pair (a sensor) never stops a body: it has no contact to resolve.
         if candidates.dormant[k] || candidates.detect_only[k] || !(fast(ia) || fast(ib)) {
@@ -132,7 +143,6 @@ fn first_impacts(state: &PhysicsState, candidates: &CandidatePairs) -> Vec<f32> 
             }
         }
     }
-    first
 }
 
 /// When bodies `ia` and `ib`, moving as `ma` and `mb`, first touch within the step, s: their
@@ -243,9 +253,9 @@ fn first_touch_of_parts(
 
 /// Puts each body of `poses` back at its pose, keeping its energy from rising (see
 /// [`stop_at_first_impact`]).
-fn put_back(state: &mut PhysicsState, poses: Vec<(usize, Pose)>) {
+fn put_back(state: &mut PhysicsState, poses: &[(usize, Pose)]) {
     let gravity = state.settings.gravity.0;
-    for (i, pose) in poses {
+    for &(i, pose) in poses {
         let body = &mut state.bodies[i];
         let position = pose.transform_point(state.local_com[i]);
         // Moved back along its path, the body may stand higher than where the solve left it:
@@ -367,6 +377,7 @@ pub fn solve_contacts(
     candidates: Res<CandidatePairs>,
     mut rows: ResMut<ContactRows>,
     mut events: ResMut<StepEvents>,
+    mut rewind: Local<Rewind>,
 ) {
     let (rows, events) = (&mut *rows, &mut *events);
     let state = &mut *state;
@@ -396,7 +407,7 @@ pub fn solve_contacts(
     // energy property test it was what raised the energy of 9 of the hybrid's 10 failing
     // worlds.
     if state.settings.config.method != solver::SolverMethod::Hybrid {
-        stop_at_first_impact(state, &candidates);
+        stop_at_first_impact(state, &candidates, &mut rewind);
     }
     let config = &state.settings.config;
     state.steps_since_bound_warning = state.steps_since_bound_warning.saturating_add(1);
