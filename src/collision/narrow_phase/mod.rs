@@ -10,6 +10,7 @@ use parry3d::query::{
 use parry3d::shape::{FeatureId, Shape};
 
 mod config;
+mod halfspace;
 mod pairs;
 mod toi;
 mod units;
@@ -116,6 +117,15 @@ impl ContactPair {
         }
         let mut pos12 = pose_a.inv_mul(pose_b);
         pos12.translation /= unit;
+        if halfspace::halfspace_manifold(
+            &pos12,
+            shape_a,
+            shape_b,
+            prediction / unit,
+            &mut self.manifolds,
+        ) {
+            return true;
+        }
         DefaultQueryDispatcher
             .contact_manifolds(
                 &pos12,
