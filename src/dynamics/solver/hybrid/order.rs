@@ -63,48 +63,45 @@ pub(super) fn shock_order(
         .iter()
         .map(|r| touches(&contacts[r.clone()], touch))
         .collect();
+    // Each manifold's bodies, read once: the passes below look them up out of order, and a
+    // contact row is large.
+    let ends: Vec<(usize, usize)> = ranges
+        .iter()
+        .map(|r| (contacts[r.start].body_a, contacts[r.start].body_b))
+        .collect();
     let level = levels(
         bodies,
-        ranges
-            .iter()
+        ends.iter()
             .zip(&touching)
             .filter(|(_, t)| **t)
-            .map(|(r, _)| (contacts[r.start].body_a, contacts[r.start].body_b)),
+            .map(|(&ends, _)| ends),
     );
-    // Sorted by (lower level, supported body), ties in manifold order.
-    let lower = |k: usize| {
-        let c = &contacts[ranges[k].start];
-        level[c.body_a].min(level[c.body_b])
-    };
-    let upper = |k: usize| {
-        let c = &contacts[ranges[k].start];
-        match level[c.body_a].cmp(&level[c.body_b]) {
-            std::cmp::Ordering::Less => Some(c.body_b),
-            std::cmp::Ordering::Greater => Some(c.body_a),
-            std::cmp::Ordering::Equal => None,
-        }
-    };
-    let order = sorted_by_level(ranges.len(), bodies.len(), lower, upper);
-    blocks.clear();
-    blocks.extend(order.iter().map(|&k| {
-        let k = k as usize;
-        let range = ranges[k].clone();
-        let c = &contacts[range.start];
-        let support = match level[c.body_a].cmp(&level[c.body_b]) {
+    let support = |k: usize| {
+        let (a, b) = ends[k];
+        match level[a].cmp(&level[b]) {
             std::cmp::Ordering::Less => Support::A,
             std::cmp::Ordering::Greater => Support::B,
             std::cmp::Ordering::Equal => Support::Neither,
-        };
-        Block {
-            range,
-            support,
-            hold: 0.0,
-            push: Vec3::ZERO,
-            load: 0.0,
-            lever: 0.0,
-            spread: 0.0,
-            touching: touching[k],
         }
+    };
+    // Sorted by (lower level, supported body), ties in manifold order.
+    let lower = |k: usize| level[ends[k].0].min(level[ends[k].1]);
+    let upper = |k: usize| match support(k) {
+        Support::A => Some(ends[k].1),
+        Support::B => Some(ends[k].0),
+        Support::Neither => None,
+    };
+    let order = sorted_by_level(ranges.len(), bodies.len(), lower, upper);
+    blocks.clear();
+    blocks.extend(order.iter().map(|&k| Block {
+        range: ranges[k as usize].clone(),
+        support: support(k as usize),
+        hold: 0.0,
+        push: Vec3::ZERO,
+        load: 0.0,
+        lever: 0.0,
+        spread: 0.0,
+        touching: touching[k as usize],
     }));
     // Which blocks are released is known before the holds: `support_holds` then skips the
     // holds that no held block depends on.
