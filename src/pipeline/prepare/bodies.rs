@@ -89,39 +89,36 @@ pub(super) fn gather_body(
     warn_on_coefficients(item);
     let rotation = world.rotation.normalize();
     let translation = world.translation;
-    let dt = state.settings.dt;
-    let (body, local_com) = solver_body(item, kind, translation, rotation, extra.as_ref(), dt);
     let (shape, rebuilt) = step_shape(geometry, item);
     let parts = match geometry {
         Some((Some(built), _)) if has_parts => compound_parts(state, item, built),
         _ => None,
     };
+    // The solver body goes to its array at once and is changed there: moved by value through
+    // the gathering (with its sleeping twin), it cost more than the gathering itself.
+    let i = state.bodies.len();
+    let local_com = push_solver_body(state, item, kind, translation, rotation, extra.as_ref());
     let radius = bounding_radius(&shape, local_com);
     // A sleeping body enters the step as static; it is swapped back in if woken.
-    let (body, asleep) = enter_asleep(
-        state,
-        item,
-        kind,
-        body,
-        ticks.this_run(),
-        pushed || disturbed,
-    );
+    let asleep = enter_asleep(state, i, item, kind, ticks.this_run(), pushed || disturbed);
     let pose = Pose::from_parts(translation, rotation);
-    let sweep = sweep(&state.settings, &body, &shape, &pose, radius);
+    let body = &state.bodies[i];
+    let sweep = sweep(&state.settings, body, &shape, &pose, radius);
     let active = is_active(state, item, body.motion, disturbed || rebuilt);
+    if let Some(motion) = extra {
+        let position = body.position;
+        state.motion.push((i, motion, position));
+    }
     let packed = Packed {
-        body,
         local_com,
         shape,
         pose,
         radius,
         sweep,
         active,
-        motion: extra,
-        asleep,
         parts,
     };
-    pack(state, item, packed)
+    pack(state, item, packed, asleep)
 }
 
 /// The shape of a body with child colliders or a world `scale`, built (and kept until it
@@ -208,18 +205,18 @@ fn admit(
     }
 }
 
-/// The solver body of a body of `kind` at `translation` and unit `rotation`, with its mass
-/// properties and velocities, and its local centre of mass (zero unless it is dynamic).
-/// Forces, accelerations and damping (`extra`) act before the solve (see
-/// `crate::dynamics::forces`).
-fn solver_body(
+/// Appends the solver body of a body of `kind` at `translation` and unit `rotation`, with its
+/// mass properties and velocities, to the step's array; returns its local centre of mass (zero
+/// unless it is dynamic). Forces, accelerations and damping (`extra`) act before the solve
+/// (see `crate::dynamics::forces`).
+fn push_solver_body(
+    state: &mut PhysicsState,
     item: &BodyDataItem,
     kind: RigidBody,
     translation: Vec3,
     rotation: Quat,
     extra: Option<&BodyMotion>,
-    dt: f32,
-) -> (SolverBody, Vec3) {
+) -> Vec3 {
     let motion = match kind {
         RigidBody::Dynamic => Motion::Dynamic,
         RigidBody::Kinematic => Motion::Kinematic,
@@ -242,9 +239,10 @@ fn solver_body(
         )
         .with_velocity(linear, angular);
     if let Some(extra) = extra {
-        extra.start_step(&mut body, dt);
+        extra.start_step(&mut body, state.settings.dt);
     }
-    (body, local_com)
+    state.bodies.push(body);
+    local_com
 }
 
 /// The radius of the sphere about `local_com` that holds the shape's local box (0 for an
@@ -345,28 +343,24 @@ fn is_active(state: &PhysicsState, item: &BodyDataItem, motion: Motion, disturbe
         || sorted_contains(&state.layers_removed, item.entity)
 }
 
-/// A body as the step's arrays take it.
+/// The rest of a body as the step's arrays take it (its solver body, sleeping twin and
+/// motion are in theirs already).
 struct Packed {
-    body: SolverBody,
     local_com: Vec3,
     shape: SharedShape,
     pose: Pose,
     radius: f32,
     sweep: Sweep,
     active: bool,
-    /// Forces, damping, speed caps or translation locks, if it has any.
-    motion: Option<BodyMotion>,
-    /// The island it sleeps with and the dynamic solver body it becomes if woken.
-    asleep: Option<(Entity, SolverBody)>,
     /// A body with child colliders: its colliders as its contacts see them, and whether a
     /// child collider asks for reports.
     parts: Option<(Arc<CompoundParts>, bool)>,
 }
 
-/// Appends a body to the step's arrays, with the materials, layers and reports it asks for.
-fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed) -> Gathered {
+/// Appends the rest of a body to the step's arrays, with the materials, layers and reports it
+/// asks for; `asleep`: it entered the step asleep.
+fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed, asleep: bool) -> Gathered {
     state.entities.push(item.entity);
-    state.bodies.push(packed.body);
     state.local_com.push(packed.local_com);
     state.shapes.push(packed.shape);
     state.poses.push(packed.pose);
@@ -409,12 +403,6 @@ fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed) -> Gather
     state.active.push(packed.active);
     state.radius.push(packed.radius);
     state.collides.push(!item.motion.collider_disabled);
-    if let Some(motion) = packed.motion {
-        let i = state.bodies.len() - 1;
-        state.motion.push((i, motion, packed.body.position));
-    }
-    let asleep = packed.asleep.is_some();
-    state.asleep.push(packed.asleep);
     if asleep {
         Gathered::Asleep
     } else {
