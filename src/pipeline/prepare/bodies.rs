@@ -89,7 +89,7 @@ pub(super) fn gather_body(
     warn_on_coefficients(item);
     let rotation = world.rotation.normalize();
     let translation = world.translation;
-    let (shape, rebuilt) = step_shape(geometry, item);
+    let (built_shape, rebuilt) = step_shape(geometry, item);
     let parts = match geometry {
         Some((Some(built), _)) if has_parts => compound_parts(state, item, built),
         _ => None,
@@ -98,22 +98,20 @@ pub(super) fn gather_body(
     // the gathering (with its sleeping twin), it cost more than the gathering itself.
     let i = state.bodies.len();
     let local_com = push_solver_body(state, item, kind, translation, rotation, extra.as_ref());
-    let radius = bounding_radius(&shape, local_com);
+    let shape = built_shape.as_ref().unwrap_or_else(|| own_shape(item));
+    let radius = put_shape(state, i, shape, local_com);
     // A sleeping body enters the step as static; it is swapped back in if woken.
     let asleep = enter_asleep(state, i, item, kind, ticks.this_run(), pushed || disturbed);
     let pose = Pose::from_parts(translation, rotation);
     let body = &state.bodies[i];
-    let sweep = sweep(&state.settings, body, &shape, &pose, radius);
+    let sweep = sweep(&state.settings, body, shape, &pose, radius);
     let active = is_active(state, item, body.motion, disturbed || rebuilt);
     if let Some(motion) = extra {
         let position = body.position;
         state.motion.push((i, motion, position));
     }
     let packed = Packed {
-        local_com,
-        shape,
         pose,
-        radius,
         sweep,
         active,
         parts,
@@ -140,23 +138,50 @@ fn built_shape(
     }
 }
 
-/// The shape of the step and whether it changed in this step: the one built for the body
-/// (`geometry`, see [`validate`]), or its own collider's.
+/// The shape built for the body (`geometry`, see [`validate`]) and whether it changed in this
+/// step; `None` for a body with its own collider's shape (see [`own_shape`]).
 fn step_shape(
     geometry: Option<(Option<&BuiltBody>, bool)>,
     item: &BodyDataItem,
-) -> (SharedShape, bool) {
+) -> (Option<SharedShape>, bool) {
     match geometry {
-        Some((Some(built), changed)) => (built.shape.clone(), changed),
-        _ => (
-            item.collider
-                .as_deref()
-                .expect("a body without parts has its own collider")
-                .shape()
-                .clone(),
-            false,
-        ),
+        Some((Some(built), changed)) => (Some(built.shape.clone()), changed),
+        _ => {
+            debug_assert!(item.collider.is_some());
+            (None, false)
+        }
     }
+}
+
+/// The shape of a body whose shape is not built: its own collider's.
+fn own_shape<'a>(item: &'a BodyDataItem) -> &'a SharedShape {
+    item.collider
+        .as_deref()
+        .expect("a body without parts has its own collider")
+        .shape()
+}
+
+/// Sets body `i`'s shape, local centre of mass and bounding radius in the step's arrays, which
+/// still hold the last step's entries from `i` on (see `begin_step`), and returns the radius.
+/// An entry that holds the same shape (the same `Arc`, kept alive by that entry, so no other
+/// shape can have its address) about the same centre of mass is kept as it is: a body that
+/// keeps its place and shape from step to step costs neither reference counting nor a radius.
+fn put_shape(state: &mut PhysicsState, i: usize, shape: &SharedShape, local_com: Vec3) -> f32 {
+    if i < state.shapes.len() {
+        if Arc::ptr_eq(&state.shapes[i].0, &shape.0) && state.local_com[i] == local_com {
+            return state.radius[i];
+        }
+        let radius = bounding_radius(shape, local_com);
+        state.shapes[i] = shape.clone();
+        state.local_com[i] = local_com;
+        state.radius[i] = radius;
+        return radius;
+    }
+    let radius = bounding_radius(shape, local_com);
+    state.shapes.push(shape.clone());
+    state.local_com.push(local_com);
+    state.radius.push(radius);
+    radius
 }
 
 /// Whether a sleeping body was pushed (see [`pushed_since`]) before tick `now`, read before
@@ -343,13 +368,10 @@ fn is_active(state: &PhysicsState, item: &BodyDataItem, motion: Motion, disturbe
         || sorted_contains(&state.layers_removed, item.entity)
 }
 
-/// The rest of a body as the step's arrays take it (its solver body, sleeping twin and
-/// motion are in theirs already).
+/// The rest of a body as the step's arrays take it (its solver body, sleeping twin, motion,
+/// shape, centre of mass and radius are in theirs already).
 struct Packed {
-    local_com: Vec3,
-    shape: SharedShape,
     pose: Pose,
-    radius: f32,
     sweep: Sweep,
     active: bool,
     /// A body with child colliders: its colliders as its contacts see them, and whether a
@@ -361,8 +383,6 @@ struct Packed {
 /// asks for; `asleep`: it entered the step asleep.
 fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed, asleep: bool) -> Gathered {
     state.entities.push(item.entity);
-    state.local_com.push(packed.local_com);
-    state.shapes.push(packed.shape);
     state.poses.push(packed.pose);
     state.restitution.push(clamp_coefficient(
         item.restitution.as_deref().map(|r| r.0),
@@ -401,7 +421,6 @@ fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed, asleep: b
     state.spin_reach.push(packed.sweep.spin_reach);
     state.aabbs.push(packed.sweep.aabb);
     state.active.push(packed.active);
-    state.radius.push(packed.radius);
     state.collides.push(!item.motion.collider_disabled);
     if asleep {
         Gathered::Asleep
