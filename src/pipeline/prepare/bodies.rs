@@ -255,18 +255,23 @@ fn push_solver_body(
     };
     let linear = item.linear_velocity.as_deref().map_or(Vec3::ZERO, |v| v.0);
     let angular = item.angular_velocity.as_deref().map_or(Vec3::ZERO, |w| w.0);
-    let mut body = SolverBody::new(motion, translation + rotation * local_com, rotation)
-        .with_mass(
-            computed.inverse_mass,
-            computed.local_inverse_inertia,
-            computed.isotropic,
-            item.locked.map_or(BVec3::FALSE, |l| l.rotation),
-        )
-        .with_velocity(linear, angular);
+    // Set in its array: each builder call by value copied the (large) body.
+    state.bodies.push(SolverBody::new(
+        motion,
+        translation + rotation * local_com,
+        rotation,
+    ));
+    let body = state.bodies.last_mut().expect("just pushed");
+    body.set_mass(
+        computed.inverse_mass,
+        computed.local_inverse_inertia,
+        computed.isotropic,
+        item.locked.map_or(BVec3::FALSE, |l| l.rotation),
+    );
+    body.set_velocity(linear, angular);
     if let Some(extra) = extra {
-        extra.start_step(&mut body, state.settings.dt);
+        extra.start_step(body, state.settings.dt);
     }
-    state.bodies.push(body);
     local_com
 }
 
