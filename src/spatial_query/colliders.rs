@@ -2,6 +2,7 @@
 //! physics step, found through the broad phase's tree.
 
 use std::cell::Cell;
+use std::sync::Arc;
 
 use bevy::prelude::*;
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
@@ -261,20 +262,49 @@ impl SpatialQueryColliders {
                 Pose::from_parts(translation, body.rotation.normalize())
             };
             let finite = pose.translation.is_finite() && pose.rotation.is_finite();
-            let shape = state.shapes()[i].clone();
+            let shape = &state.shapes()[i];
             let aabb = if finite {
                 shape.compute_aabb(&pose)
             } else {
                 Aabb::new(Vec3::splat(f32::NAN), Vec3::splat(f32::NAN))
             };
+            let (layers, hittable) = (state.layers()[i], finite && state.collides()[i]);
+            let leaf = tree.leaf(entity);
+            // A body without child colliders at the leaf it had in the last step (most bodies,
+            // most steps): its record is written in place, its shape kept unless it changed, so
+            // it costs no record built and dropped and no reference counting.
+            if state.parts()[i].is_none()
+                && let Some(leaf) = leaf
+                && let Some(Some(c)) = self.records.get_mut(leaf as usize)
+                && c.entity == entity
+                && c.parts.is_empty()
+            {
+                if !Arc::ptr_eq(&c.shape.0, &shape.0) {
+                    c.shape = shape.clone();
+                }
+                c.body = entity;
+                c.pose = pose;
+                c.aabb = aabb;
+                c.layers = layers;
+                c.hittable = hittable;
+                c.step = step;
+                c.straggler = !tree
+                    .bvh()
+                    .leaf_node(leaf)
+                    .is_some_and(|node| node.aabb().contains(&aabb));
+                if c.straggler {
+                    stragglers.push(leaf);
+                }
+                continue;
+            }
             let mut record = QueryCollider {
                 entity,
                 body: entity,
-                shape,
+                shape: shape.clone(),
                 pose,
                 aabb,
-                layers: state.layers()[i],
-                hittable: finite && state.collides()[i],
+                layers,
+                hittable,
                 step,
                 straggler: false,
                 parts: Vec::new(),
@@ -282,7 +312,7 @@ impl SpatialQueryColliders {
             if let Some(parts) = &state.parts()[i] {
                 record.parts = QueryCollider::colliders_of(&record, parts);
             }
-            match tree.leaf(entity) {
+            match leaf {
                 Some(leaf) => {
                     let inside = tree
                         .bvh()

@@ -89,39 +89,34 @@ pub(super) fn gather_body(
     warn_on_coefficients(item);
     let rotation = world.rotation.normalize();
     let translation = world.translation;
-    let dt = state.settings.dt;
-    let (body, local_com) = solver_body(item, kind, translation, rotation, extra.as_ref(), dt);
-    let (shape, rebuilt) = step_shape(geometry, item);
+    let (built_shape, rebuilt) = step_shape(geometry, item);
     let parts = match geometry {
         Some((Some(built), _)) if has_parts => compound_parts(state, item, built),
         _ => None,
     };
-    let radius = bounding_radius(&shape, local_com);
+    // The solver body goes to its array at once and is changed there: moved by value through
+    // the gathering (with its sleeping twin), it cost more than the gathering itself.
+    let i = state.bodies.len();
+    let local_com = push_solver_body(state, item, kind, translation, rotation, extra.as_ref());
+    let shape = built_shape.as_ref().unwrap_or_else(|| own_shape(item));
+    let radius = put_shape(state, i, shape, local_com);
     // A sleeping body enters the step as static; it is swapped back in if woken.
-    let (body, asleep) = enter_asleep(
-        state,
-        item,
-        kind,
-        body,
-        ticks.this_run(),
-        pushed || disturbed,
-    );
+    let asleep = enter_asleep(state, i, item, kind, ticks.this_run(), pushed || disturbed);
     let pose = Pose::from_parts(translation, rotation);
-    let sweep = sweep(&state.settings, &body, &shape, &pose, radius);
+    let body = &state.bodies[i];
+    let sweep = sweep(&state.settings, body, shape, &pose, radius);
     let active = is_active(state, item, body.motion, disturbed || rebuilt);
+    if let Some(motion) = extra {
+        let position = body.position;
+        state.motion.push((i, motion, position));
+    }
     let packed = Packed {
-        body,
-        local_com,
-        shape,
         pose,
-        radius,
         sweep,
         active,
-        motion: extra,
-        asleep,
         parts,
     };
-    pack(state, item, packed)
+    pack(state, item, packed, asleep)
 }
 
 /// The shape of a body with child colliders or a world `scale`, built (and kept until it
@@ -143,23 +138,50 @@ fn built_shape(
     }
 }
 
-/// The shape of the step and whether it changed in this step: the one built for the body
-/// (`geometry`, see [`validate`]), or its own collider's.
+/// The shape built for the body (`geometry`, see [`validate`]) and whether it changed in this
+/// step; `None` for a body with its own collider's shape (see [`own_shape`]).
 fn step_shape(
     geometry: Option<(Option<&BuiltBody>, bool)>,
     item: &BodyDataItem,
-) -> (SharedShape, bool) {
+) -> (Option<SharedShape>, bool) {
     match geometry {
-        Some((Some(built), changed)) => (built.shape.clone(), changed),
-        _ => (
-            item.collider
-                .as_deref()
-                .expect("a body without parts has its own collider")
-                .shape()
-                .clone(),
-            false,
-        ),
+        Some((Some(built), changed)) => (Some(built.shape.clone()), changed),
+        _ => {
+            debug_assert!(item.collider.is_some());
+            (None, false)
+        }
     }
+}
+
+/// The shape of a body whose shape is not built: its own collider's.
+fn own_shape<'a>(item: &'a BodyDataItem) -> &'a SharedShape {
+    item.collider
+        .as_deref()
+        .expect("a body without parts has its own collider")
+        .shape()
+}
+
+/// Sets body `i`'s shape, local centre of mass and bounding radius in the step's arrays, which
+/// still hold the last step's entries from `i` on (see `begin_step`), and returns the radius.
+/// An entry that holds the same shape (the same `Arc`, kept alive by that entry, so no other
+/// shape can have its address) about the same centre of mass is kept as it is: a body that
+/// keeps its place and shape from step to step costs neither reference counting nor a radius.
+fn put_shape(state: &mut PhysicsState, i: usize, shape: &SharedShape, local_com: Vec3) -> f32 {
+    if i < state.shapes.len() {
+        if Arc::ptr_eq(&state.shapes[i].0, &shape.0) && state.local_com[i] == local_com {
+            return state.radius[i];
+        }
+        let radius = bounding_radius(shape, local_com);
+        state.shapes[i] = shape.clone();
+        state.local_com[i] = local_com;
+        state.radius[i] = radius;
+        return radius;
+    }
+    let radius = bounding_radius(shape, local_com);
+    state.shapes.push(shape.clone());
+    state.local_com.push(local_com);
+    state.radius.push(radius);
+    radius
 }
 
 /// Whether a sleeping body was pushed (see [`pushed_since`]) before tick `now`, read before
@@ -208,18 +230,18 @@ fn admit(
     }
 }
 
-/// The solver body of a body of `kind` at `translation` and unit `rotation`, with its mass
-/// properties and velocities, and its local centre of mass (zero unless it is dynamic).
-/// Forces, accelerations and damping (`extra`) act before the solve (see
-/// `crate::dynamics::forces`).
-fn solver_body(
+/// Appends the solver body of a body of `kind` at `translation` and unit `rotation`, with its
+/// mass properties and velocities, to the step's array; returns its local centre of mass (zero
+/// unless it is dynamic). Forces, accelerations and damping (`extra`) act before the solve
+/// (see `crate::dynamics::forces`).
+fn push_solver_body(
+    state: &mut PhysicsState,
     item: &BodyDataItem,
     kind: RigidBody,
     translation: Vec3,
     rotation: Quat,
     extra: Option<&BodyMotion>,
-    dt: f32,
-) -> (SolverBody, Vec3) {
+) -> Vec3 {
     let motion = match kind {
         RigidBody::Dynamic => Motion::Dynamic,
         RigidBody::Kinematic => Motion::Kinematic,
@@ -233,18 +255,24 @@ fn solver_body(
     };
     let linear = item.linear_velocity.as_deref().map_or(Vec3::ZERO, |v| v.0);
     let angular = item.angular_velocity.as_deref().map_or(Vec3::ZERO, |w| w.0);
-    let mut body = SolverBody::new(motion, translation + rotation * local_com, rotation)
-        .with_mass(
-            computed.inverse_mass,
-            computed.local_inverse_inertia,
-            computed.isotropic,
-            item.locked.map_or(BVec3::FALSE, |l| l.rotation),
-        )
-        .with_velocity(linear, angular);
+    // Set in its array: each builder call by value copied the (large) body.
+    state.bodies.push(SolverBody::new(
+        motion,
+        translation + rotation * local_com,
+        rotation,
+    ));
+    let body = state.bodies.last_mut().expect("just pushed");
+    body.set_mass(
+        computed.inverse_mass,
+        computed.local_inverse_inertia,
+        computed.isotropic,
+        item.locked.map_or(BVec3::FALSE, |l| l.rotation),
+    );
+    body.set_velocity(linear, angular);
     if let Some(extra) = extra {
-        extra.start_step(&mut body, dt);
+        extra.start_step(body, state.settings.dt);
     }
-    (body, local_com)
+    local_com
 }
 
 /// The radius of the sphere about `local_com` that holds the shape's local box (0 for an
@@ -345,30 +373,21 @@ fn is_active(state: &PhysicsState, item: &BodyDataItem, motion: Motion, disturbe
         || sorted_contains(&state.layers_removed, item.entity)
 }
 
-/// A body as the step's arrays take it.
+/// The rest of a body as the step's arrays take it (its solver body, sleeping twin, motion,
+/// shape, centre of mass and radius are in theirs already).
 struct Packed {
-    body: SolverBody,
-    local_com: Vec3,
-    shape: SharedShape,
     pose: Pose,
-    radius: f32,
     sweep: Sweep,
     active: bool,
-    /// Forces, damping, speed caps or translation locks, if it has any.
-    motion: Option<BodyMotion>,
-    /// The island it sleeps with and the dynamic solver body it becomes if woken.
-    asleep: Option<(Entity, SolverBody)>,
     /// A body with child colliders: its colliders as its contacts see them, and whether a
     /// child collider asks for reports.
     parts: Option<(Arc<CompoundParts>, bool)>,
 }
 
-/// Appends a body to the step's arrays, with the materials, layers and reports it asks for.
-fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed) -> Gathered {
+/// Appends the rest of a body to the step's arrays, with the materials, layers and reports it
+/// asks for; `asleep`: it entered the step asleep.
+fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed, asleep: bool) -> Gathered {
     state.entities.push(item.entity);
-    state.bodies.push(packed.body);
-    state.local_com.push(packed.local_com);
-    state.shapes.push(packed.shape);
     state.poses.push(packed.pose);
     state.restitution.push(clamp_coefficient(
         item.restitution.as_deref().map(|r| r.0),
@@ -407,14 +426,7 @@ fn pack(state: &mut PhysicsState, item: &BodyDataItem, packed: Packed) -> Gather
     state.spin_reach.push(packed.sweep.spin_reach);
     state.aabbs.push(packed.sweep.aabb);
     state.active.push(packed.active);
-    state.radius.push(packed.radius);
     state.collides.push(!item.motion.collider_disabled);
-    if let Some(motion) = packed.motion {
-        let i = state.bodies.len() - 1;
-        state.motion.push((i, motion, packed.body.position));
-    }
-    let asleep = packed.asleep.is_some();
-    state.asleep.push(packed.asleep);
     if asleep {
         Gathered::Asleep
     } else {

@@ -99,11 +99,13 @@ pub fn prepare_bodies(
     state.layers_removed.extend(children);
     state.layers_removed.sort_unstable();
     state.layers_removed.dedup();
-    for mut item in awake.iter_mut() {
+    // `for_each` takes Bevy's table-by-table path, which builds each (large) item in place;
+    // a `for` loop's `next` built and moved it, which cost more than most of the gathering.
+    awake.iter_mut().for_each(|mut item| {
         if let Gathered::Quarantined = gather_body(state, &mut commands, &ticks, &mut item) {
             state.departed.push(item.entity);
         }
-    }
+    });
     state.hierarchy.prune();
     // A disabled body leaves the step as a despawned one does: its pairs end.
     state.departed.extend(removals.disabled.iter());
@@ -115,6 +117,7 @@ pub fn prepare_bodies(
         };
         gather_sleeper(state, &mut commands, &ticks, &mut item);
     }
+    end_gathering(state);
     if !sleep_enabled {
         state.read_every_step.clear();
         return;
@@ -131,8 +134,9 @@ fn begin_step(state: &mut PhysicsState) {
     state.step = state.step.wrapping_add(1);
     state.entities.clear();
     state.bodies.clear();
-    state.local_com.clear();
-    state.shapes.clear();
+    // `local_com`, `shapes` and `radius` keep the last step's entries while the bodies are
+    // gathered, which keep each one that is unchanged (see `bodies::put_shape`); then they are
+    // cut to the step's bodies (see `end_gathering`).
     state.poses.clear();
     state.restitution.clear();
     state.friction.clear();
@@ -144,11 +148,19 @@ fn begin_step(state: &mut PhysicsState) {
     state.spin_reach.clear();
     state.aabbs.clear();
     state.active.clear();
-    state.radius.clear();
     state.collides.clear();
     state.motion.clear();
     state.asleep.clear();
     state.woken.clear();
     state.entered.clear();
     state.departed.clear();
+}
+
+/// Ends the gathering: the arrays kept from the last step (see `begin_step`) are cut to the
+/// bodies of this step, before anything else is appended to them.
+fn end_gathering(state: &mut PhysicsState) {
+    let n = state.entities.len();
+    state.local_com.truncate(n);
+    state.shapes.truncate(n);
+    state.radius.truncate(n);
 }

@@ -43,6 +43,9 @@ pub(super) fn body_motion(
     gravity: Vec3,
 ) -> Result<Option<BodyMotion>, String> {
     let m = &item.motion;
+    if has_no_motion(item) {
+        return Ok(None);
+    }
     let rotation = rotation.normalize();
     let locked = item.locked.copied().unwrap_or_default();
     let Applied {
@@ -92,6 +95,31 @@ pub(super) fn body_motion(
         locked_translation: locked.translation,
     };
     Ok((!motion.is_none()).then_some(motion))
+}
+
+/// Whether a body has none of the components [`body_motion`] reads (its `AccumulatedForces`
+/// empty) and no locked translation: its motion is none, as the full check would find, for the
+/// price of a few loads (most bodies, every step).
+fn has_no_motion(item: &BodyDataItem) -> bool {
+    let m = &item.motion;
+    m.constant_force.is_none()
+        && m.constant_torque.is_none()
+        && m.constant_local_force.is_none()
+        && m.constant_local_torque.is_none()
+        && m.linear_acceleration.is_none()
+        && m.angular_acceleration.is_none()
+        && m.gravity_scale.is_none()
+        && m.linear_damping.is_none()
+        && m.angular_damping.is_none()
+        && m.max_linear_speed.is_none()
+        && m.max_angular_speed.is_none()
+        && m
+            .accumulated
+            .as_deref()
+            .is_none_or(|a| *a == AccumulatedForces::default())
+        && item.locked.is_none_or(|l| !l.translation.any())
+        // The full check's error for a missing `ComputedMass` (met first in `validate`).
+        && item.computed.is_some()
 }
 
 /// What is applied to a body, summed in the world frame: forces (N), torques (N m), linear

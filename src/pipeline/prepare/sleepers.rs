@@ -140,25 +140,27 @@ pub(super) fn gather_sleeper(
     }
 }
 
-/// A body as it enters the step: a sleeping dynamic body enters as static, with the island it
-/// sleeps with and the dynamic `body` it is swapped back to if woken (sleeping on); any other
-/// as `body`. The island is queued to wake when the body was touched since it fell asleep (its
-/// pose or velocity set, or `nudged`: pushed, or its ancestors or child colliders changed)
-/// before tick `now`.
+/// How body `i` of the step (its solver body just pushed) enters it: a sleeping dynamic body
+/// enters as static, its dynamic solver body kept with the island it sleeps with, to be swapped
+/// back if woken (sleeping on); any other as it is. Pushes its entry of the step's `asleep`
+/// array and says whether it entered asleep. The island is queued to wake when the body was
+/// touched since it fell asleep (its pose or velocity set, or `nudged`: pushed, or its ancestors
+/// or child colliders changed) before tick `now`.
 pub(super) fn enter_asleep(
     state: &mut PhysicsState,
+    i: usize,
     item: &BodyDataItem,
     kind: RigidBody,
-    body: SolverBody,
     now: Tick,
     nudged: bool,
-) -> (SolverBody, Option<(Entity, SolverBody)>) {
-    let Some(marker) = item.sleeping.as_ref() else {
-        return (body, None);
+) -> bool {
+    let marker = match item.sleeping.as_ref() {
+        Some(marker) if kind == RigidBody::Dynamic && state.settings.sleep.enabled => marker,
+        _ => {
+            state.asleep.push(None);
+            return false;
+        }
     };
-    if kind != RigidBody::Dynamic || !state.settings.sleep.enabled {
-        return (body, None);
-    }
     let since = marker.added();
     let touched = item.transform.last_changed().is_newer_than(since, now)
         || item
@@ -178,6 +180,8 @@ pub(super) fn enter_asleep(
     if touched {
         state.woken.push(island);
     }
-    let sleeping = SolverBody::new(Motion::Static, body.position, body.rotation);
-    (sleeping, Some((island, body)))
+    let body = state.bodies[i];
+    state.bodies[i] = SolverBody::new(Motion::Static, body.position, body.rotation);
+    state.asleep.push(Some((island, body)));
+    true
 }

@@ -93,6 +93,24 @@ impl SolverBody {
         isotropic: bool,
         locked_rotation: BVec3,
     ) -> Self {
+        self.set_mass(
+            inverse_mass,
+            local_inverse_inertia,
+            isotropic,
+            locked_rotation,
+        );
+        self
+    }
+
+    /// [`with_mass`](Self::with_mass) in place: the prepare stage sets the bodies in their
+    /// array (a body is large; each builder call by value copied it).
+    pub fn set_mass(
+        &mut self,
+        inverse_mass: f32,
+        local_inverse_inertia: Mat3,
+        isotropic: bool,
+        locked_rotation: BVec3,
+    ) {
         if self.motion == Motion::Dynamic {
             self.inverse_mass = inverse_mass;
             self.local_inverse_inertia = local_inverse_inertia;
@@ -100,11 +118,16 @@ impl SolverBody {
             self.locked_rotation = locked_rotation;
             self.inverse_inertia = self.world_inverse_inertia(self.rotation);
         }
-        self
     }
 
     /// Sets the velocities.
     pub fn with_velocity(mut self, linear: Vec3, angular: Vec3) -> Self {
+        self.set_velocity(linear, angular);
+        self
+    }
+
+    /// [`with_velocity`](Self::with_velocity) in place.
+    pub fn set_velocity(&mut self, linear: Vec3, angular: Vec3) {
         self.linear_velocity = linear;
         self.angular_velocity = if self.motion == Motion::Static {
             Vec3::ZERO
@@ -114,7 +137,6 @@ impl SolverBody {
         if self.motion == Motion::Static {
             self.linear_velocity = Vec3::ZERO;
         }
-        self
     }
 
     fn world_inverse_inertia(&self, rotation: Quat) -> Mat3 {
