@@ -20,7 +20,13 @@ pub(super) fn carried_loads(
     bodies: &[SolverBody],
     contacts: &[ContactConstraint],
     blocks: &mut [Block],
+    scratch: &mut LoadScratch,
 ) {
+    let LoadScratch {
+        load,
+        moment,
+        supports,
+    } = scratch;
     let mass = |i: usize| {
         let b = &bodies[i];
         if b.motion == Motion::Dynamic && b.inverse_mass > 0.0 {
@@ -29,17 +35,16 @@ pub(super) fn carried_loads(
             0.0
         }
     };
-    let mut load: Vec<f32> = (0..bodies.len()).map(mass).collect();
+    load.clear();
+    load.extend((0..bodies.len()).map(mass));
     // The mass-weighted sum of the positions of what each body carries (itself included), for
     // each block's lever.
-    let mut moment: Vec<Vec3> = bodies
-        .iter()
-        .enumerate()
-        .map(|(i, b)| mass(i) * b.position)
-        .collect();
+    moment.clear();
+    moment.extend(bodies.iter().enumerate().map(|(i, b)| mass(i) * b.position));
     // Only touching blocks share the load; a speculative one (not touching) is given the whole
     // load of its upper body, as if it were its only support, and passes none on.
-    let mut supports = vec![0u32; bodies.len()];
+    supports.clear();
+    supports.resize(bodies.len(), 0);
     for block in blocks.iter().filter(|b| b.touching) {
         if let Some(upper) = block.upper(contacts) {
             supports[upper] += 1;
@@ -65,6 +70,17 @@ pub(super) fn carried_loads(
             }
         }
     }
+}
+
+/// [`carried_loads`]' buffers, kept between steps (their contents rebuilt at every call).
+#[derive(Clone, Debug, Default)]
+pub(super) struct LoadScratch {
+    /// The mass each body carries, itself included.
+    load: Vec<f32>,
+    /// The mass-weighted sum of the positions of what each body carries.
+    moment: Vec<Vec3>,
+    /// Each body's touching supports.
+    supports: Vec<u32>,
 }
 
 /// A manifold's [`Block::lever`] and [`Block::spread`]: how high the centre of mass `center`

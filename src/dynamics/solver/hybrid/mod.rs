@@ -44,6 +44,8 @@ pub struct HybridScratch {
     origin: Vec<Range<usize>>,
     /// The soft substeps' buffers.
     soft: SoftScratch,
+    /// The shock order's buffers.
+    order: OrderScratch,
 }
 
 /// The hybrid method's solve of one step (see [`super::step`]): the impact phase, then the
@@ -94,8 +96,16 @@ pub(super) fn solve(
             ordered,
             origin,
             soft,
+            order,
         } = scratch;
-        shock_order(blocks, bodies, contacts, manifolds, config.linear_slop);
+        shock_order(
+            blocks,
+            bodies,
+            contacts,
+            manifolds,
+            config.linear_slop,
+            order,
+        );
         // The sweeps visit the blocks in shock order: lay the contacts out in that order, so
         // that they read them in sequence rather than all over the slice.
         in_block_order(contacts, blocks, ordered, origin);

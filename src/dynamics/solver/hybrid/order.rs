@@ -36,43 +36,55 @@ use super::*;
 ///
 /// Without a consistent partition of `contacts` into `manifolds` (a caller of [`step`](crate::dynamics::solver::step) may pass
 /// none), each contact is its own block. The blocks are written into `blocks` (its earlier
-/// contents dropped, its memory kept).
+/// contents dropped, its memory kept); `scratch` holds the other buffers.
 pub(super) fn shock_order(
     blocks: &mut Vec<Block>,
     bodies: &[SolverBody],
     contacts: &[ContactConstraint],
     manifolds: &[Range<usize>],
     touch: f32,
+    scratch: &mut OrderScratch,
 ) {
+    let OrderScratch {
+        singles,
+        touching,
+        ends,
+        levels,
+        sort,
+        supports,
+        released,
+        holds,
+        loads,
+    } = scratch;
     let covered = manifolds.iter().map(|r| r.len()).sum::<usize>() == contacts.len()
         && manifolds
             .iter()
             .all(|r| r.end <= contacts.len() && !r.is_empty());
-    let singles: Vec<Range<usize>>;
     let ranges: &[Range<usize>] = if covered {
         manifolds
     } else {
-        singles = (0..contacts.len()).map(|i| i..i + 1).collect();
-        &singles
+        singles.clear();
+        singles.extend((0..contacts.len()).map(|i| i..i + 1));
+        singles
     };
     // Only touching manifolds (a point within `touch`) make levels: a speculative contact is no
     // support. (With it, a die resting on another had the level of the lower die: at 1 mm the
     // step's fall `g dt^2`, 2.7 mm at 60 Hz, reaches the ground through the lower die, and the
     // pair of dice was then solved two-body, with no support held and no load carried.)
-    let touching: Vec<bool> = ranges
-        .iter()
-        .map(|r| touches(&contacts[r.clone()], touch))
-        .collect();
+    touching.clear();
+    touching.extend(ranges.iter().map(|r| touches(&contacts[r.clone()], touch)));
     // Each manifold's bodies, read once: the passes below look them up out of order, and a
     // contact row is large.
-    let ends: Vec<(usize, usize)> = ranges
-        .iter()
-        .map(|r| (contacts[r.start].body_a, contacts[r.start].body_b))
-        .collect();
-    let level = levels(
+    ends.clear();
+    ends.extend(
+        ranges
+            .iter()
+            .map(|r| (contacts[r.start].body_a, contacts[r.start].body_b)),
+    );
+    let level = levels.compute(
         bodies,
         ends.iter()
-            .zip(&touching)
+            .zip(touching.iter())
             .filter(|(_, t)| **t)
             .map(|(&ends, _)| ends),
     );
@@ -91,7 +103,7 @@ pub(super) fn shock_order(
         Support::B => Some(ends[k].0),
         Support::Neither => None,
     };
-    let order = sorted_by_level(ranges.len(), bodies.len(), lower, upper);
+    let order = sort.sorted_by_level(ranges.len(), bodies.len(), lower, upper);
     blocks.clear();
     blocks.extend(order.iter().map(|&k| Block {
         range: ranges[k as usize].clone(),
@@ -105,105 +117,178 @@ pub(super) fn shock_order(
     }));
     // Which blocks are released is known before the holds: `support_holds` then skips the
     // holds that no held block depends on.
-    let released = frictional_groups(bodies.len(), contacts, blocks);
-    support_holds(bodies, contacts, blocks, touch, &released);
-    release_frictional_groups(blocks, &released);
-    carried_loads(bodies, contacts, blocks);
+    frictional_groups(bodies.len(), contacts, blocks, supports, released);
+    support_holds(bodies, contacts, blocks, touch, released, holds);
+    release_frictional_groups(blocks, released);
+    carried_loads(bodies, contacts, blocks, loads);
 }
 
-/// The indices `0..count` of manifolds sorted by (`lower(k)`, `upper(k)`), no support
-/// (`None`) after every body, ties in index order: the order of `sort_unstable` on the keys
-/// `(lower, upper, k)`, made by two stable counting sorts (by supported body, then by level).
-/// Why: a comparison sort of the keys was a third of the shock order's cost in a settled pile
-/// (0.2 ms a step for 2,000 spheres); each counting sort is one pass over the manifolds and
-/// one over the bodies. A level is at most `bodies - 1` or `u32::MAX` (unreached), so
-/// `bodies + 1` buckets keep both keys in order.
-pub(super) fn sorted_by_level(
-    count: usize,
-    bodies: usize,
-    lower: impl Fn(usize) -> u32,
-    upper: impl Fn(usize) -> Option<usize>,
-) -> Vec<u32> {
-    let by_upper = counting_sort(0..count as u32, bodies + 1, |k| {
-        upper(k as usize).unwrap_or(bodies)
-    });
-    counting_sort(by_upper.iter().copied(), bodies + 1, |k| {
-        (lower(k as usize) as usize).min(bodies)
-    })
+/// [`shock_order`]'s buffers, kept between steps (in the hybrid's scratch): their contents
+/// are rebuilt at every call; only their memory is reused, so a steady step allocates nothing.
+#[derive(Clone, Debug, Default)]
+pub(super) struct OrderScratch {
+    /// One single-contact range per contact, when the manifolds do not cover the contacts.
+    singles: Vec<Range<usize>>,
+    /// Each manifold touches (see [`touches`]).
+    touching: Vec<bool>,
+    /// Each manifold's two bodies.
+    ends: Vec<(usize, usize)>,
+    /// The bodies' levels.
+    levels: Levels,
+    /// The manifolds' order.
+    sort: LevelSort,
+    /// Each body's touching supports and whether any has friction ([`frictional_groups`]).
+    supports: Vec<(u32, bool)>,
+    /// Each block is released ([`release_frictional_groups`]).
+    released: Vec<bool>,
+    /// [`support_holds`]' buffers.
+    holds: HoldScratch,
+    /// [`carried_loads`]' buffers.
+    loads: LoadScratch,
 }
 
-/// `items` stably sorted by `bucket` (each below `buckets`).
+/// Two stable counting sorts' buffers: see [`LevelSort::sorted_by_level`].
+#[derive(Clone, Debug, Default)]
+pub(super) struct LevelSort {
+    /// Each bucket's start.
+    start: Vec<u32>,
+    /// The indices sorted by supported body.
+    by_upper: Vec<u32>,
+    /// The indices sorted by level, then supported body.
+    order: Vec<u32>,
+}
+
+impl LevelSort {
+    /// The indices `0..count` of manifolds sorted by (`lower(k)`, `upper(k)`), no support
+    /// (`None`) after every body, ties in index order: the order of `sort_unstable` on the
+    /// keys `(lower, upper, k)`, made by two stable counting sorts (by supported body, then by
+    /// level). Why: a comparison sort of the keys was a third of the shock order's cost in a
+    /// settled pile (0.2 ms a step for 2,000 spheres); each counting sort is one pass over the
+    /// manifolds and one over the bodies. A level is at most `bodies - 1` or `u32::MAX`
+    /// (unreached), so `bodies + 1` buckets keep both keys in order.
+    pub(super) fn sorted_by_level(
+        &mut self,
+        count: usize,
+        bodies: usize,
+        lower: impl Fn(usize) -> u32,
+        upper: impl Fn(usize) -> Option<usize>,
+    ) -> &[u32] {
+        let LevelSort {
+            start,
+            by_upper,
+            order,
+        } = self;
+        counting_sort(0..count as u32, bodies + 1, start, by_upper, |k| {
+            upper(k as usize).unwrap_or(bodies)
+        });
+        counting_sort(by_upper.iter().copied(), bodies + 1, start, order, |k| {
+            (lower(k as usize) as usize).min(bodies)
+        });
+        order
+    }
+}
+
+/// `items` stably sorted by `bucket` (each below `buckets`) into `sorted`; `start` is a
+/// buffer (both buffers' earlier contents dropped).
 fn counting_sort(
     items: impl Iterator<Item = u32> + Clone,
     buckets: usize,
+    start: &mut Vec<u32>,
+    sorted: &mut Vec<u32>,
     bucket: impl Fn(u32) -> usize,
-) -> Vec<u32> {
-    let mut start = vec![0u32; buckets + 1];
+) {
+    start.clear();
+    start.resize(buckets + 1, 0);
     for k in items.clone() {
         start[bucket(k) + 1] += 1;
     }
     for i in 0..buckets {
         start[i + 1] += start[i];
     }
-    let mut sorted = vec![0u32; start[buckets] as usize];
+    sorted.clear();
+    sorted.resize(start[buckets] as usize, 0);
     for k in items {
         let b = bucket(k);
         sorted[start[b] as usize] = k;
         start[b] += 1;
     }
-    sorted
 }
 
-/// Each body's level: 0 for a static or kinematic body, one more than its lowest neighbour
-/// through `pairs` for a dynamic one (`u32::MAX` if no chain of pairs reaches a fixed body).
-/// A breadth-first search from the fixed bodies over the pairs, in a compressed adjacency
-/// list: each pair is looked at twice, however tall the stacks.
-pub(super) fn levels(
-    bodies: &[SolverBody],
-    pairs: impl Iterator<Item = (usize, usize)> + Clone,
-) -> Vec<u32> {
-    let mut level: Vec<u32> = bodies
-        .iter()
-        .map(|b| {
+/// Each body's level (see [`Levels::compute`]) and the buffers of its search.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Levels {
+    /// Each body's level.
+    level: Vec<u32>,
+    /// Each body's first neighbour in `neighbours`.
+    start: Vec<u32>,
+    /// Each body's next free place in `neighbours`, while they are written.
+    next: Vec<u32>,
+    /// Each body's neighbours through the pairs, body by body.
+    neighbours: Vec<u32>,
+    /// The search's queue.
+    queue: Vec<u32>,
+}
+
+impl Levels {
+    /// Each body's level: 0 for a static or kinematic body, one more than its lowest
+    /// neighbour through `pairs` for a dynamic one (`u32::MAX` if no chain of pairs reaches a
+    /// fixed body). A breadth-first search from the fixed bodies over the pairs, in a
+    /// compressed adjacency list: each pair is looked at twice, however tall the stacks.
+    pub(super) fn compute(
+        &mut self,
+        bodies: &[SolverBody],
+        pairs: impl Iterator<Item = (usize, usize)> + Clone,
+    ) -> &[u32] {
+        let Levels {
+            level,
+            start,
+            next,
+            neighbours,
+            queue,
+        } = self;
+        level.clear();
+        level.extend(bodies.iter().map(|b| {
             if b.motion == Motion::Dynamic {
                 u32::MAX
             } else {
                 0
             }
-        })
-        .collect();
-    let mut start = vec![0u32; bodies.len() + 1];
-    for (a, b) in pairs.clone() {
-        start[a + 1] += 1;
-        start[b + 1] += 1;
-    }
-    for i in 0..bodies.len() {
-        start[i + 1] += start[i];
-    }
-    let mut next = start.clone();
-    let mut neighbours = vec![0u32; start[bodies.len()] as usize];
-    for (a, b) in pairs {
-        neighbours[next[a] as usize] = b as u32;
-        next[a] += 1;
-        neighbours[next[b] as usize] = a as u32;
-        next[b] += 1;
-    }
-    let mut queue: Vec<u32> = (0..bodies.len() as u32)
-        .filter(|&i| level[i as usize] == 0)
-        .collect();
-    let mut head = 0;
-    while head < queue.len() {
-        let from = queue[head] as usize;
-        head += 1;
-        let via = level[from] + 1;
-        for &to in &neighbours[start[from] as usize..start[from + 1] as usize] {
-            if level[to as usize] == u32::MAX {
-                level[to as usize] = via;
-                queue.push(to);
+        }));
+        start.clear();
+        start.resize(bodies.len() + 1, 0);
+        for (a, b) in pairs.clone() {
+            start[a + 1] += 1;
+            start[b + 1] += 1;
+        }
+        for i in 0..bodies.len() {
+            start[i + 1] += start[i];
+        }
+        next.clear();
+        next.extend_from_slice(start);
+        neighbours.clear();
+        neighbours.resize(start[bodies.len()] as usize, 0);
+        for (a, b) in pairs {
+            neighbours[next[a] as usize] = b as u32;
+            next[a] += 1;
+            neighbours[next[b] as usize] = a as u32;
+            next[b] += 1;
+        }
+        queue.clear();
+        queue.extend((0..bodies.len() as u32).filter(|&i| level[i as usize] == 0));
+        let mut head = 0;
+        while head < queue.len() {
+            let from = queue[head] as usize;
+            head += 1;
+            let via = level[from] + 1;
+            for &to in &neighbours[start[from] as usize..start[from + 1] as usize] {
+                if level[to as usize] == u32::MAX {
+                    level[to as usize] = via;
+                    queue.push(to);
+                }
             }
         }
+        level
     }
-    level
 }
 
 /// Solves the manifolds of a body that rests on several supports, with friction on any of
@@ -232,28 +317,30 @@ pub(super) fn release_frictional_groups(blocks: &mut [Block], released: &[bool])
     }
 }
 
-/// Which of `blocks` [`release_frictional_groups`] releases: those whose supported body has
-/// more than one touching support, with friction on any of them.
+/// Which of `blocks` [`release_frictional_groups`] releases, into `released`: those whose
+/// supported body has more than one touching support, with friction on any of them
+/// (`supports` a buffer; both buffers' earlier contents dropped).
 pub(super) fn frictional_groups(
     bodies: usize,
     contacts: &[ContactConstraint],
     blocks: &[Block],
-) -> Vec<bool> {
-    let mut supports = vec![(0u32, false); bodies];
+    supports: &mut Vec<(u32, bool)>,
+    released: &mut Vec<bool>,
+) {
+    supports.clear();
+    supports.resize(bodies, (0, false));
     for block in blocks.iter().filter(|b| b.touching) {
         if let Some(upper) = block.upper(contacts) {
             supports[upper].0 += 1;
             supports[upper].1 |= contacts[block.range.start].friction > 0.0;
         }
     }
-    blocks
-        .iter()
-        .map(|block| {
-            block
-                .upper(contacts)
-                .is_some_and(|upper| supports[upper].0 > 1 && supports[upper].1)
-        })
-        .collect()
+    released.clear();
+    released.extend(blocks.iter().map(|block| {
+        block
+            .upper(contacts)
+            .is_some_and(|upper| supports[upper].0 > 1 && supports[upper].1)
+    }));
 }
 
 /// Some row of the manifold can push and is within `touch` (m) of touching.

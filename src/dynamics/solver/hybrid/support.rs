@@ -67,13 +67,22 @@ pub(super) fn support_holds(
     blocks: &mut [Block],
     touch: f32,
     released: &[bool],
+    scratch: &mut HoldScratch,
 ) {
     // Long on purpose: the three rules of the doc above, applied in order over one shared buffer
     // of support entries per body; split, each part would take that buffer and its index arrays.
     let touching = |c: &ContactConstraint| c.separation <= touch && c.normal_mass > 0.0;
     // The support entries of each body, in one buffer: body `i` has at most `room[i]` of them,
     // at `start[i]..start[i] + count[i]`.
-    let mut start = vec![0u32; bodies.len() + 1];
+    let HoldScratch {
+        start,
+        needed,
+        read,
+        count,
+        entries,
+    } = scratch;
+    start.clear();
+    start.resize(bodies.len() + 1, 0);
     for block in blocks.iter() {
         if let Some(upper) = block.upper(contacts) {
             start[upper + 1] = (start[upper + 1] + 1).min(MAX_SUPPORTS as u32);
@@ -86,8 +95,10 @@ pub(super) fn support_holds(
     // block that supports a body whose entries a needed block reads. A block reads the
     // entries of its support only after the blocks before it have set them, so a block is
     // needed by the needed readers after it.
-    let mut needed = vec![false; blocks.len()];
-    let mut read = vec![false; bodies.len()];
+    needed.clear();
+    needed.resize(blocks.len(), false);
+    read.clear();
+    read.resize(bodies.len(), false);
     for (k, block) in blocks.iter().enumerate().rev() {
         let Some((upper, lower)) = block.pair(contacts) else {
             continue;
@@ -97,9 +108,11 @@ pub(super) fn support_holds(
             read[lower] |= bodies[lower].motion == Motion::Dynamic;
         }
     }
-    let mut count = vec![0u32; bodies.len()];
-    let mut entries = vec![SupportEntry::default(); start[bodies.len()] as usize];
-    for (block, _) in blocks.iter_mut().zip(&needed).filter(|(_, n)| **n) {
+    count.clear();
+    count.resize(bodies.len(), 0);
+    entries.clear();
+    entries.resize(start[bodies.len()] as usize, SupportEntry::default());
+    for (block, _) in blocks.iter_mut().zip(needed.iter()).filter(|(_, n)| **n) {
         let Some((upper, lower)) = block.pair(contacts) else {
             continue;
         };
@@ -182,6 +195,21 @@ pub(super) fn support_holds(
         entries[(start[upper] + count[upper]) as usize] = entry;
         count[upper] += 1;
     }
+}
+
+/// [`support_holds`]' buffers, kept between steps (their contents rebuilt at every call).
+#[derive(Clone, Debug, Default)]
+pub(super) struct HoldScratch {
+    /// Each body's first support entry in `entries`.
+    start: Vec<u32>,
+    /// Each block's hold is needed.
+    needed: Vec<bool>,
+    /// Each body's entries are read by a needed block.
+    read: Vec<bool>,
+    /// Each body's entries set so far.
+    count: Vec<u32>,
+    /// The support entries, body by body.
+    entries: Vec<SupportEntry>,
 }
 
 /// The hold of a support with the given support manifolds and footprint, for a push along `-n`

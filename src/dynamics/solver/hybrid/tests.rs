@@ -13,7 +13,14 @@ fn blocks_in_shock_order(
     touch: f32,
 ) -> Vec<Block> {
     let mut blocks = Vec::new();
-    shock_order(&mut blocks, bodies, contacts, manifolds, touch);
+    shock_order(
+        &mut blocks,
+        bodies,
+        contacts,
+        manifolds,
+        touch,
+        &mut OrderScratch::default(),
+    );
     blocks
 }
 
@@ -80,7 +87,8 @@ fn levels_are_hops_from_the_nearest_fixed_body() {
         (4, 5),
         (3, 2),
     ];
-    let level = levels(&bodies, pairs.iter().copied());
+    let mut levels = Levels::default();
+    let level = levels.compute(&bodies, pairs.iter().copied());
     assert_eq!(level, vec![0, 1, 2, 2, 1, 0, 2, u32::MAX, u32::MAX]);
 }
 
@@ -468,7 +476,8 @@ fn counting_sort_matches_the_key_sort() {
         .map(|(k, &(lower, upper))| (lower, upper.unwrap_or(usize::MAX), k))
         .collect();
     expected.sort_unstable();
-    let order = sorted_by_level(count, bodies, |k| keys[k].0, |k| keys[k].1);
+    let mut sort = LevelSort::default();
+    let order = sort.sorted_by_level(count, bodies, |k| keys[k].0, |k| keys[k].1);
     let expected: Vec<u32> = expected.iter().map(|&(_, _, k)| k as u32).collect();
     assert_eq!(order, expected);
 }
