@@ -50,7 +50,11 @@ impl Plugin for SolvePlugin {
 /// step at 60 Hz) meets the wall in a pose the start geometry does not describe, and every
 /// method but the hybrid one, which resolves impacts one at a time at their time of impact,
 /// let such a body through.
-fn stop_at_first_impact(state: &mut PhysicsState, candidates: &CandidatePairs, rewind: &mut Rewind) {
+fn stop_at_first_impact(
+    state: &mut PhysicsState,
+    candidates: &CandidatePairs,
+    rewind: &mut Rewind,
+) {
     let dt = state.dt;
     let Rewind { first, poses } = rewind;
     first_impacts(state, candidates, first);

@@ -53,7 +53,11 @@ pub(super) fn halfspace_manifold(
     else {
         return false;
     };
-    if manifolds.len() > 1 || manifolds.first().is_some_and(|m| m.points.len() > MAX_POINTS) {
+    if manifolds.len() > 1
+        || manifolds
+            .first()
+            .is_some_and(|m| m.points.len() > MAX_POINTS)
+    {
         return false;
     }
     if manifolds.is_empty() {

@@ -33,7 +33,7 @@ use bevy::prelude::*;
 pub use body::{Motion, SolverBody, integrate_positions, integrate_velocities};
 pub use config::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
 pub use contact::{ContactConstraint, prepare_contacts, refresh_inertia, warm_start};
-use propagation::{Propagation, propagate};
+use propagation::{Propagation, PropagationScratch, propagate_with};
 
 /// Solves one step of length `dt` (s) over `bodies` and `contacts` under `gravity` (m/s^2),
 /// with `manifolds` the ranges of `contacts` that belong to one body pair (contiguous), and
@@ -86,6 +86,9 @@ pub struct SolverScratch {
     soft: soft_step::SoftScratch,
     rigid: sequential_impulses::RigidScratch,
     push_out: push_out::PushOut,
+    propagation: PropagationScratch,
+    /// Each contact as a group of its own (the propagation method's groups).
+    singles: Vec<Range<usize>>,
 }
 
 /// [`step`], with its buffers kept in `scratch` between calls: the same results, without
@@ -136,25 +139,26 @@ pub fn step_with_scratch(
             &mut stats,
             &mut scratch.hybrid,
         ),
-        SolverMethod::SoftStep => {
-            soft_step::solve(
-                bodies,
-                contacts,
-                config,
-                gravity,
-                dt,
-                &mut stats,
-                &mut scratch.soft,
-            )
-        }
+        SolverMethod::SoftStep => soft_step::solve(
+            bodies,
+            contacts,
+            config,
+            gravity,
+            dt,
+            &mut stats,
+            &mut scratch.soft,
+        ),
         SolverMethod::Propagation => {
             integrate_velocities(bodies, gravity, dt);
-            let singles: Vec<Range<usize>> = (0..contacts.len()).map(|i| i..i + 1).collect();
-            let report = propagate(
+            let singles = &mut scratch.singles;
+            singles.clear();
+            singles.extend((0..contacts.len()).map(|i| i..i + 1));
+            let report = propagate_with(
                 bodies,
                 contacts,
-                &singles,
+                singles,
                 &propagation_params(config, config.velocity_tolerance, gravity, true, false, dt),
+                &mut scratch.propagation,
             );
             stats.propagation_sweeps = report.sweeps;
             stats.propagation_bound_hit = report.bound_hit;

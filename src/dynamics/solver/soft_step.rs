@@ -396,7 +396,11 @@ pub fn apply_restitution(
             break;
         }
     }
-    for (c, &before) in contacts.iter_mut().filter(|c| active(c)).zip(resting.iter()) {
+    for (c, &before) in contacts
+        .iter_mut()
+        .filter(|c| active(c))
+        .zip(resting.iter())
+    {
         c.normal_impulse = c.normal_impulse.min(before);
     }
 }

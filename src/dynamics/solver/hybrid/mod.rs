@@ -11,7 +11,7 @@ use bevy::prelude::*;
 use super::body::{Motion, SolverBody};
 use super::contact::{ContactConstraint, solve_friction};
 use super::iterative::{Settling, Sweep};
-use super::propagation::propagate;
+use super::propagation::{PropagationScratch, propagate_with};
 use super::soft_step::{Resting, SoftScratch, Softness, soft_substeps};
 use super::{SolverConfig, SolverStats, propagation_params};
 use crate::impulse::{apply_row_impulse, row_inverse_mass};
@@ -46,6 +46,8 @@ pub struct HybridScratch {
     soft: SoftScratch,
     /// The shock order's buffers.
     order: OrderScratch,
+    /// The impact phase's buffers.
+    impacts: PropagationScratch,
 }
 
 /// The hybrid method's solve of one step (see [`super::step`]): the impact phase, then the
@@ -62,7 +64,7 @@ pub(super) fn solve(
     stats: &mut SolverStats,
     scratch: &mut HybridScratch,
 ) {
-    let report = propagate(
+    let report = propagate_with(
         bodies,
         contacts,
         manifolds,
@@ -74,6 +76,7 @@ pub(super) fn solve(
             true,
             dt,
         ),
+        &mut scratch.impacts,
     );
     stats.propagation_sweeps = report.sweeps;
     stats.propagation_bound_hit = report.bound_hit;
@@ -97,6 +100,7 @@ pub(super) fn solve(
             origin,
             soft,
             order,
+            impacts: _,
         } = scratch;
         shock_order(
             blocks,

@@ -60,12 +60,12 @@ pub(super) struct EventScratch {
 }
 
 impl EventScratch {
-    /// Scratch for a pass over `bodies` bodies.
-    pub(super) fn new(bodies: usize) -> Self {
-        EventScratch {
-            slot: vec![u32::MAX; bodies],
-            ..EventScratch::default()
-        }
+    /// Ready for a pass over `bodies` bodies (the buffers' memory kept).
+    pub(super) fn reset(&mut self, bodies: usize) {
+        // `before` names the last pass's bodies, whose slots the next event would clear.
+        self.before.clear();
+        self.slot.clear();
+        self.slot.resize(bodies, u32::MAX);
     }
 
     /// The last event changed the velocities of `body`, one of its bodies.

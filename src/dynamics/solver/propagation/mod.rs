@@ -136,6 +136,80 @@ pub fn propagate(
     groups: &[Range<usize>],
     params: &Propagation,
 ) -> PropagationReport {
+    propagate_with(
+        bodies,
+        contacts,
+        groups,
+        params,
+        &mut PropagationScratch::default(),
+    )
+}
+
+/// [`propagate`]'s per-body and per-group state and its events' buffers, kept between passes
+/// (in the solver's scratch) so that a pass allocates nothing once they have grown to the
+/// scene: their contents are rebuilt at every pass, only their memory is reused.
+#[derive(Default)]
+pub(super) struct PropagationScratch {
+    /// The events' buffers.
+    event: EventScratch,
+    /// Per body, the resolution that last changed it.
+    stamp: Vec<u32>,
+    /// Per group, the resolution count when it was last checked.
+    checked: Vec<u32>,
+    /// Per group, it met at an impact of this pass.
+    met: Vec<bool>,
+    /// Per group, its body pair.
+    pairs: Vec<Option<(usize, usize)>>,
+    /// Per dynamic body, its groups.
+    touching: GroupsOfBody,
+    /// The clusters of touching bodies.
+    clusters: Clusters,
+    /// Per group, postponed in the last sweep.
+    postponed: Vec<bool>,
+    /// The current event's groups.
+    event_groups: Vec<usize>,
+    /// Per group, in the current event.
+    in_event: Vec<bool>,
+    /// Per group, joined the current event as a touching inelastic contact.
+    joined: Vec<bool>,
+    /// Per group, resolved in the current sweep.
+    done: Vec<bool>,
+    /// The sweep's approaching groups by time of impact.
+    queue: BinaryHeap<Reverse<Queued>>,
+    /// Per group, the time of its last impact (NaN: none yet).
+    last_impact: Vec<f32>,
+    /// Per group, its bounce is spent.
+    spent: Vec<bool>,
+}
+
+impl std::fmt::Debug for PropagationScratch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PropagationScratch").finish_non_exhaustive()
+    }
+}
+
+impl Clone for PropagationScratch {
+    /// A fresh scratch: only the memory of the buffers would be copied, and none of their
+    /// contents is read before a pass rebuilds it.
+    fn clone(&self) -> Self {
+        PropagationScratch::default()
+    }
+}
+
+/// `buffer` as `len` copies of `value` (its earlier contents dropped, its memory kept).
+fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
+    buffer.clear();
+    buffer.resize(len, value);
+}
+
+/// [`propagate`], with its buffers in `scratch`: the same results.
+pub(super) fn propagate_with(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactConstraint],
+    groups: &[Range<usize>],
+    params: &Propagation,
+    scratch: &mut PropagationScratch,
+) -> PropagationReport {
     let mut report = PropagationReport::default();
     if nothing_approaches(bodies, contacts, groups, params) {
         // The first sweep would find no impact and the pass would end with it (a group with
@@ -144,49 +218,67 @@ pub fn propagate(
         report.sweeps = u32::from(checked && params.max_sweeps > 0);
         return report;
     }
-    let mut scratch = EventScratch::new(bodies.len());
+    let PropagationScratch {
+        event: scratch,
+        stamp,
+        checked,
+        met,
+        pairs,
+        touching,
+        clusters: cluster_buffers,
+        postponed,
+        event_groups: event,
+        in_event,
+        joined,
+        done,
+        queue,
+        last_impact,
+        spent,
+    } = scratch;
+    scratch.reset(bodies.len());
     // Only a group one of whose bodies changed velocity since the group was last checked can
     // have started to approach: `stamp` is, per body, the number of the resolution that last
     // changed it, and `checked` per group the resolution count when it was last found not
     // approaching (or resolved). The pass stops as soon as no group needs a check, so an
     // island of one impact costs one sweep, not a second one that finds nothing.
-    let mut stamp = vec![0u32; bodies.len()];
-    let mut checked = vec![0u32; groups.len()];
+    refill(stamp, bodies.len(), 0);
+    refill(checked, groups.len(), 0);
     // The group's gap closed at an impact earlier in this pass: it touches from then on.
-    let mut met = vec![false; groups.len()];
+    refill(met, groups.len(), false);
     let mut resolutions = 0u32;
     // The body pair of each group (the groups are single contacts or one pair's manifold).
-    let pairs: Vec<Option<(usize, usize)>> = groups
-        .iter()
-        .map(|g| {
-            has_rows(contacts, g).then(|| (contacts[g.start].body_a, contacts[g.start].body_b))
-        })
-        .collect();
-    let touching = GroupsOfBody::new(bodies, &pairs);
+    pairs.clear();
+    pairs.extend(groups.iter().map(|g| {
+        has_rows(contacts, g).then(|| (contacts[g.start].body_a, contacts[g.start].body_b))
+    }));
+    let pairs = &*pairs;
+    touching.rebuild(bodies, pairs);
+    let touching = &*touching;
     // The bodies in contact, and the approaches that wait for the next sweep (see `Clusters`).
-    let mut clusters = params
-        .wait_in_cluster
-        .then(|| Clusters::new(bodies, contacts, groups, &pairs, params.touch));
+    let mut clusters = params.wait_in_cluster.then(|| {
+        cluster_buffers.reset(bodies, contacts, groups, pairs, params.touch);
+        cluster_buffers
+    });
     // Postponed in the last sweep (see `Clusters`): checked again in the next.
-    let mut postponed = vec![false; groups.len()];
+    refill(postponed, groups.len(), false);
     let needs_check = |k: usize, stamp: &[u32], checked: &[u32], postponed: &[bool], sweeps| {
         pairs[k].is_some_and(|(a, b)| {
             sweeps == 0 || postponed[k] || stamp[a].max(stamp[b]) > checked[k]
         })
     };
-    let mut event: Vec<usize> = Vec::new();
-    let mut in_event = vec![false; groups.len()];
+    event.clear();
+    refill(in_event, groups.len(), false);
     // The event's groups that join it as touching inelastic contacts (see `JOINED_ROWS`).
-    let mut joined = vec![false; groups.len()];
+    refill(joined, groups.len(), false);
     // Resolved in the current sweep: each group is resolved at most once a sweep.
-    let mut done = vec![false; groups.len()];
+    refill(done, groups.len(), false);
     // The sweep's approaching groups by time of impact, earliest first (ties by index).
-    let mut queue: BinaryHeap<Reverse<Queued>> = BinaryHeap::new();
+    queue.clear();
     // The time of each group's last impact in this pass (NaN: none yet), and whether it was
     // struck again at that same instant, which spends its bounce (see `struck_again`):
     // from then on it is inelastic in this pass.
-    let mut last_impact = vec![f32::NAN; groups.len()];
-    let mut spent = vec![false; groups.len()];
+    refill(last_impact, groups.len(), f32::NAN);
+    refill(spent, groups.len(), false);
     loop {
         let pending =
             (0..groups.len()).any(|k| needs_check(k, &stamp, &checked, &postponed, report.sweeps));
@@ -316,21 +408,12 @@ pub fn propagate(
                 }
             }
             resolve_event(
-                bodies,
-                contacts,
-                groups,
-                &event,
-                &met,
-                &joined,
-                &spent,
-                inelastic,
-                event_time,
-                params,
-                &mut scratch,
+                bodies, contacts, groups, &event, &met, &joined, &spent, inelastic, event_time,
+                params, scratch,
             );
             report.resolutions += 1;
             resolutions += 1;
-            for &g in &event {
+            for &g in event.iter() {
                 in_event[g] = false;
                 if std::mem::take(&mut joined[g]) {
                     // A joined group was not picked up as an impact: it may still be, in this

@@ -28,6 +28,7 @@ use super::Propagation;
 /// to its bodies, waits too, and is itself recorded as waiting at its own time, so that the
 /// approaches it would have struck in turn wait after it. Clusters that touch nothing waiting
 /// run their impacts in the sweep, in time order, as before.
+#[derive(Default)]
 pub(super) struct Clusters {
     /// Union-find parent of each body (dynamic bodies only take part).
     parent: Vec<u32>,
@@ -38,26 +39,28 @@ pub(super) struct Clusters {
 }
 
 impl Clusters {
-    pub(super) fn new(
+    /// The clusters at the start of a pass: bodies joined by the groups that touch (the
+    /// buffers' earlier contents dropped, their memory kept).
+    pub(super) fn reset(
+        &mut self,
         bodies: &[SolverBody],
         contacts: &[ContactConstraint],
         groups: &[Range<usize>],
         pairs: &[Option<(usize, usize)>],
         touch: f32,
-    ) -> Self {
-        let mut clusters = Clusters {
-            parent: (0..bodies.len() as u32).collect(),
-            waiting: vec![(0, 0.0); bodies.len()],
-            sweep: 0,
-        };
+    ) {
+        self.parent.clear();
+        self.parent.extend(0..bodies.len() as u32);
+        self.waiting.clear();
+        self.waiting.resize(bodies.len(), (0, 0.0));
+        self.sweep = 0;
         for (range, &pair) in groups.iter().zip(pairs) {
             if let Some((a, b)) = pair
                 && contacts[range.clone()].iter().any(|c| touches(c, touch))
             {
-                clusters.join(a, b, bodies);
+                self.join(a, b, bodies);
             }
         }
-        clusters
     }
 
     pub(super) fn root(&mut self, mut i: usize) -> usize {
@@ -209,15 +212,26 @@ impl Ord for Queued {
 }
 
 /// For each dynamic body, the groups that touch it (compressed rows).
+#[derive(Default)]
 pub(super) struct GroupsOfBody {
     start: Vec<u32>,
     groups: Vec<u32>,
+    /// Each body's next free place in `groups`, while they are written.
+    fill: Vec<u32>,
 }
 
 impl GroupsOfBody {
-    pub(super) fn new(bodies: &[SolverBody], pairs: &[Option<(usize, usize)>]) -> Self {
+    /// The groups of each body of `pairs` (the buffers' earlier contents dropped, their memory
+    /// kept).
+    pub(super) fn rebuild(&mut self, bodies: &[SolverBody], pairs: &[Option<(usize, usize)>]) {
         let dynamic = |i: usize| bodies[i].motion == Motion::Dynamic;
-        let mut start = vec![0u32; bodies.len() + 1];
+        let GroupsOfBody {
+            start,
+            groups,
+            fill,
+        } = self;
+        start.clear();
+        start.resize(bodies.len() + 1, 0);
         for &(a, b) in pairs.iter().flatten() {
             for i in [a, b].into_iter().filter(|&i| dynamic(i)) {
                 start[i + 1] += 1;
@@ -226,8 +240,10 @@ impl GroupsOfBody {
         for i in 0..bodies.len() {
             start[i + 1] += start[i];
         }
-        let mut fill = start.clone();
-        let mut groups = vec![0u32; start[bodies.len()] as usize];
+        fill.clear();
+        fill.extend_from_slice(start);
+        groups.clear();
+        groups.resize(start[bodies.len()] as usize, 0);
         for (k, (a, b)) in pairs
             .iter()
             .enumerate()
@@ -238,7 +254,6 @@ impl GroupsOfBody {
                 fill[i] += 1;
             }
         }
-        GroupsOfBody { start, groups }
     }
 
     pub(super) fn of(&self, body: usize) -> &[u32] {
