@@ -23,6 +23,7 @@ mod lcp;
 pub mod ledger;
 pub mod propagation;
 pub mod push_out;
+mod rows;
 pub mod sequential_impulses;
 pub mod soft_step;
 

@@ -2,6 +2,7 @@
 //! held, the contacts laid out block by block).
 
 use super::*;
+use crate::dynamics::solver::rows::CompressedRows;
 
 /// The manifolds of the hybrid method's resting solve, ordered from the ground up and each with
 /// its support, which is held while the manifold is solved (shock propagation, after
@@ -219,12 +220,8 @@ fn counting_sort(
 pub(super) struct Levels {
     /// Each body's level.
     level: Vec<u32>,
-    /// Each body's first neighbour in `neighbours`.
-    start: Vec<u32>,
-    /// Each body's next free place in `neighbours`, while they are written.
-    next: Vec<u32>,
-    /// Each body's neighbours through the pairs, body by body.
-    neighbours: Vec<u32>,
+    /// Each body's neighbours through the pairs.
+    neighbours: CompressedRows,
     /// The search's queue.
     queue: Vec<u32>,
 }
@@ -241,8 +238,6 @@ impl Levels {
     ) -> &[u32] {
         let Levels {
             level,
-            start,
-            next,
             neighbours,
             queue,
         } = self;
@@ -254,25 +249,10 @@ impl Levels {
                 0
             }
         }));
-        start.clear();
-        start.resize(bodies.len() + 1, 0);
-        for (a, b) in pairs.clone() {
-            start[a + 1] += 1;
-            start[b + 1] += 1;
-        }
-        for i in 0..bodies.len() {
-            start[i + 1] += start[i];
-        }
-        next.clear();
-        next.extend_from_slice(start);
-        neighbours.clear();
-        neighbours.resize(start[bodies.len()] as usize, 0);
-        for (a, b) in pairs {
-            neighbours[next[a] as usize] = b as u32;
-            next[a] += 1;
-            neighbours[next[b] as usize] = a as u32;
-            next[b] += 1;
-        }
+        neighbours.build(
+            bodies.len(),
+            pairs.flat_map(|(a, b)| [(a, b as u32), (b, a as u32)]),
+        );
         queue.clear();
         queue.extend((0..bodies.len() as u32).filter(|&i| level[i as usize] == 0));
         let mut head = 0;
@@ -280,7 +260,7 @@ impl Levels {
             let from = queue[head] as usize;
             head += 1;
             let via = level[from] + 1;
-            for &to in &neighbours[start[from] as usize..start[from + 1] as usize] {
+            for &to in neighbours.row(from) {
                 if level[to as usize] == u32::MAX {
                     level[to as usize] = via;
                     queue.push(to);

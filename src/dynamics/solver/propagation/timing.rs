@@ -8,6 +8,7 @@ use bevy::math::Vec3;
 
 use super::super::body::{Motion, SolverBody};
 use super::super::contact::ContactConstraint;
+use super::super::rows::CompressedRows;
 use super::Propagation;
 
 /// The dynamic bodies that touch, through contacts touching at the start of the step or met at
@@ -213,51 +214,29 @@ impl Ord for Queued {
 
 /// For each dynamic body, the groups that touch it (compressed rows).
 #[derive(Default)]
-pub(super) struct GroupsOfBody {
-    start: Vec<u32>,
-    groups: Vec<u32>,
-    /// Each body's next free place in `groups`, while they are written.
-    fill: Vec<u32>,
-}
+pub(super) struct GroupsOfBody(CompressedRows);
 
 impl GroupsOfBody {
     /// The groups of each body of `pairs` (the buffers' earlier contents dropped, their memory
     /// kept).
     pub(super) fn rebuild(&mut self, bodies: &[SolverBody], pairs: &[Option<(usize, usize)>]) {
         let dynamic = |i: usize| bodies[i].motion == Motion::Dynamic;
-        let GroupsOfBody {
-            start,
-            groups,
-            fill,
-        } = self;
-        start.clear();
-        start.resize(bodies.len() + 1, 0);
-        for &(a, b) in pairs.iter().flatten() {
-            for i in [a, b].into_iter().filter(|&i| dynamic(i)) {
-                start[i + 1] += 1;
-            }
-        }
-        for i in 0..bodies.len() {
-            start[i + 1] += start[i];
-        }
-        fill.clear();
-        fill.extend_from_slice(start);
-        groups.clear();
-        groups.resize(start[bodies.len()] as usize, 0);
-        for (k, (a, b)) in pairs
-            .iter()
-            .enumerate()
-            .filter_map(|(k, p)| p.map(|p| (k, p)))
-        {
-            for i in [a, b].into_iter().filter(|&i| dynamic(i)) {
-                groups[fill[i] as usize] = k as u32;
-                fill[i] += 1;
-            }
-        }
+        self.0.build(
+            bodies.len(),
+            pairs
+                .iter()
+                .enumerate()
+                .filter_map(|(k, p)| p.map(|(a, b)| (k as u32, [a, b])))
+                .flat_map(move |(k, ends)| {
+                    ends.into_iter()
+                        .filter(move |&i| dynamic(i))
+                        .map(move |i| (i, k))
+                }),
+        );
     }
 
     pub(super) fn of(&self, body: usize) -> &[u32] {
-        &self.groups[self.start[body] as usize..self.start[body + 1] as usize]
+        self.0.row(body)
     }
 
     /// The groups of either body of `pair` (none for no pair), the first body's first.
