@@ -281,13 +281,13 @@ pub(super) fn propagate_with(
     refill(spent, groups.len(), false);
     loop {
         let pending =
-            (0..groups.len()).any(|k| needs_check(k, &stamp, &checked, &postponed, report.sweeps));
+            (0..groups.len()).any(|k| needs_check(k, stamp, checked, postponed, report.sweeps));
         if !pending {
             break;
         }
         if report.sweeps == params.max_sweeps {
             report.bound_hit = (0..groups.len()).any(|k| {
-                let chain = chained(pairs[k], &stamp) && !spent[k];
+                let chain = chained(pairs[k], stamp) && !spent[k];
                 approach_time(bodies, contacts, &groups[k], params, met[k], chain).is_some()
             });
             break;
@@ -314,11 +314,11 @@ pub(super) fn propagate_with(
         // is still better than one not resolved at all (a body passing into another).
         let last_sweep = report.sweeps == params.max_sweeps;
         for k in 0..groups.len() {
-            if !needs_check(k, &stamp, &checked, &postponed, report.sweeps - 1) {
+            if !needs_check(k, stamp, checked, postponed, report.sweeps - 1) {
                 continue;
             }
             postponed[k] = false;
-            match approaches(k, &stamp, bodies, contacts, &met, &spent) {
+            match approaches(k, stamp, bodies, contacts, met, spent) {
                 Some(time) => queue.push(Reverse(Queued { time, group: k })),
                 None => checked[k] = resolutions,
             }
@@ -331,7 +331,7 @@ pub(super) fn propagate_with(
             if done[k] {
                 continue;
             }
-            let Some(time) = approaches(k, &stamp, bodies, contacts, &met, &spent) else {
+            let Some(time) = approaches(k, stamp, bodies, contacts, met, spent) else {
                 checked[k] = resolutions;
                 continue;
             };
@@ -368,7 +368,7 @@ pub(super) fn propagate_with(
                     if in_event[l] || done[l] {
                         continue;
                     }
-                    let Some(t) = approaches(l, &stamp, bodies, contacts, &met, &spent) else {
+                    let Some(t) = approaches(l, stamp, bodies, contacts, met, spent) else {
                         continue;
                     };
                     if (t - time).abs() > SIMULTANEOUS * params.dt {
@@ -408,8 +408,8 @@ pub(super) fn propagate_with(
                 }
             }
             resolve_event(
-                bodies, contacts, groups, &event, &met, &joined, &spent, inelastic, event_time,
-                params, scratch,
+                bodies, contacts, groups, event, met, joined, spent, inelastic, event_time, params,
+                scratch,
             );
             report.resolutions += 1;
             resolutions += 1;
@@ -456,7 +456,7 @@ pub(super) fn propagate_with(
                 }
                 for &l in touching.of(body) {
                     let l = l as usize;
-                    match approaches(l, &stamp, bodies, contacts, &met, &spent) {
+                    match approaches(l, stamp, bodies, contacts, met, spent) {
                         None => checked[l] = resolutions,
                         Some(time) if !done[l] => queue.push(Reverse(Queued { time, group: l })),
                         // Resolved in this sweep and approaching again: it waits for the next
