@@ -136,15 +136,22 @@ pub fn within(x: f32, max: f32) -> bool {
 }
 
 /// Checks a vector's length against `max`; NaN and infinite lengths fail.
+#[inline]
 pub(crate) fn check_length(what: &str, v: Vec3, max: f32) -> Result<(), String> {
     let len = v.length();
     if len <= max {
         Ok(())
     } else {
-        Err(format!(
-            "{what} {v} (|{what}| = {len:?}) is not finite or above {max:e}"
-        ))
+        Err(length_error(what, v, len, max))
     }
+}
+
+/// The error of [`check_length`], out of line: formatting `v` in place made the check copy it
+/// to the stack in two parts and read it back across both, which stalled every check.
+#[cold]
+#[inline(never)]
+fn length_error(what: &str, v: Vec3, len: f32, max: f32) -> String {
+    format!("{what} {v} (|{what}| = {len:?}) is not finite or above {max:e}")
 }
 
 /// Checks that `value` is finite and within `range`, pushing an error naming `field` and the
