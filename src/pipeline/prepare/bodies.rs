@@ -63,7 +63,7 @@ pub(super) fn gather_body(
     let parented = hierarchy.world_pose(entity);
     let world: &Transform = match &parented {
         Some(world) => world,
-        None => item.transform.clone().into_inner(),
+        None => item.transform.into_inner(),
     };
     let disturbed = hierarchy.is_disturbed(entity);
     let reshaped = hierarchy.is_reshaped(entity);
