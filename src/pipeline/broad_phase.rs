@@ -67,7 +67,7 @@ fn wake_overlapped_islands(state: &mut PhysicsState, tree: &mut BroadPhaseTree, 
         tree.pairs_with_active(&state.aabbs, &state.active, &mut state.index_pairs);
         let islands = islands_woken(
             &state.index_pairs,
-            |k| state.asleep[k].map(|(island, _)| island),
+            |k| state.asleep[k],
             |k| wakes_sleepers(&state.bodies[k]),
             |i, j| state.pair_kind(i, j) == Some(PairKind::Solved),
         );

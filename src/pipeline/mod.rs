@@ -116,9 +116,13 @@ pub struct PhysicsState {
     /// The dynamic bodies with forces, damping, speed caps or translation locks: index, what
     /// they have, and the centre of mass at the start of the step.
     motion: Vec<(usize, BodyMotion, Vec3)>,
-    /// For a body that entered the step asleep: the island it sleeps with, and the dynamic
-    /// solver body it becomes if it is woken in this step.
-    asleep: Vec<Option<(Entity, SolverBody)>>,
+    /// For a body that entered the step asleep: the island it sleeps with (`None` once woken).
+    asleep: Vec<Option<Entity>>,
+    /// For each body that entered the step asleep, by index in the step (increasing): the
+    /// dynamic solver body it becomes if it is woken in this step. Kept apart from `asleep`,
+    /// whose entry every body of the step has: a solver body in each entry made that array
+    /// as large as the bodies' own, written for every body at every step.
+    asleep_twins: Vec<(usize, SolverBody)>,
     /// Islands woken in this step; their `Sleeping` markers are removed.
     woken: Vec<Entity>,
     /// Bodies of pairs that disappeared in this step (a neighbour despawned, was quarantined

@@ -34,8 +34,8 @@ pub(super) fn wake_islands(state: &mut PhysicsState, islands: &[Entity]) -> bool
         bring_in(state, i);
     }
     let mut any = false;
-    for i in 0..state.bodies.len() {
-        if let Some((island, body)) = state.asleep[i]
+    for &(i, body) in &state.asleep_twins {
+        if let Some(island) = state.asleep[i]
             && islands.contains(&island)
         {
             state.bodies[i] = body;
@@ -80,7 +80,8 @@ fn bring_in(state: &mut PhysicsState, i: u32) {
         let index = state.bodies.len() - 1;
         state.motion.push((index, motion, s.body.position));
     }
-    state.asleep.push(Some((s.island, s.body)));
+    state.asleep.push(Some(s.island));
+    state.asleep_twins.push((state.bodies.len() - 1, s.body));
     state.entered.push(s.entity);
 }
 

@@ -136,15 +136,24 @@ pub fn within(x: f32, max: f32) -> bool {
 }
 
 /// Checks a vector's length against `max`; NaN and infinite lengths fail.
+#[inline]
 pub(crate) fn check_length(what: &str, v: Vec3, max: f32) -> Result<(), String> {
     let len = v.length();
     if len <= max {
         Ok(())
     } else {
-        Err(format!(
-            "{what} {v} (|{what}| = {len:?}) is not finite or above {max:e}"
-        ))
+        Err(length_error(what, [v.x, v.y, v.z], len, max))
     }
+}
+
+/// The error of [`check_length`], out of line and given the coordinates one by one: formatting
+/// `v` in place (or handing it over whole) made the check copy it to the stack in two parts
+/// and read it back across both, which stalled every check.
+#[cold]
+#[inline(never)]
+fn length_error(what: &str, [x, y, z]: [f32; 3], len: f32, max: f32) -> String {
+    let v = Vec3::new(x, y, z);
+    format!("{what} {v} (|{what}| = {len:?}) is not finite or above {max:e}")
 }
 
 /// Checks that `value` is finite and within `range`, pushing an error naming `field` and the

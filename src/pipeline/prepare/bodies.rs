@@ -58,8 +58,13 @@ pub(super) fn gather_body(
     if item.collider.is_none() && !has_parts {
         return Gathered::Skipped;
     }
-    // The world pose: the `Transform` of a top-level entity, read as it is.
-    let world = hierarchy.world_pose(entity).unwrap_or(*item.transform);
+    // The world pose: the `Transform` of a top-level entity, read as it is (in place: a copy
+    // read back field by field stalled on its own stores).
+    let parented = hierarchy.world_pose(entity);
+    let world: &Transform = match &parented {
+        Some(world) => world,
+        None => item.transform.into_inner(),
+    };
     let disturbed = hierarchy.is_disturbed(entity);
     let reshaped = hierarchy.is_reshaped(entity);
     let was_built = hierarchy.was_built(entity);
@@ -76,7 +81,7 @@ pub(super) fn gather_body(
             // Built in an earlier step and no longer (its scale went back to 1, or it lost its
             // child colliders): its mass properties are its own collider's again.
             let unbuilt = geometry.is_none() && was_built;
-            validate(item, kind, &world, geometry, reshaped || unbuilt)
+            validate(item, kind, world, geometry, reshaped || unbuilt)
         })
         .and_then(|()| match kind {
             RigidBody::Dynamic => body_motion(item, world.rotation, state.settings.gravity.0),

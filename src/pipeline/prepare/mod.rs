@@ -151,6 +151,7 @@ fn begin_step(state: &mut PhysicsState) {
     state.collides.clear();
     state.motion.clear();
     state.asleep.clear();
+    state.asleep_twins.clear();
     state.woken.clear();
     state.entered.clear();
     state.departed.clear();

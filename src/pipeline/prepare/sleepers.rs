@@ -98,7 +98,8 @@ pub(super) fn gather_sleeper(
     match gather_body(state, commands, ticks, item) {
         Gathered::Asleep => {
             let i = state.entities.len() - 1;
-            let (island, body) = state.asleep[i].expect("gathered asleep");
+            let island = state.asleep[i].expect("gathered asleep");
+            let body = state.asleep_twins.last().expect("gathered asleep").1;
             state.sleepers.insert(
                 Sleeper {
                     entity,
@@ -182,6 +183,7 @@ pub(super) fn enter_asleep(
     }
     let body = state.bodies[i];
     state.bodies[i] = SolverBody::new(Motion::Static, body.position, body.rotation);
-    state.asleep.push(Some((island, body)));
+    state.asleep.push(Some(island));
+    state.asleep_twins.push((i, body));
     true
 }
