@@ -4,6 +4,7 @@
 use super::body::{Motion, SolverBody};
 use super::contact::{ContactConstraint, solve_friction};
 use super::ledger::RestitutionLedger;
+use crate::dynamics::solver::refill;
 
 /// What one sweep over the contacts did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -45,8 +46,7 @@ pub struct Settling {
 impl Settling {
     /// Starts a sweep over `bodies` bodies.
     pub fn begin(&mut self, bodies: usize) {
-        self.last_change.clear();
-        self.last_change.resize(bodies, 0);
+        refill(&mut self.last_change, bodies, 0);
         self.friction_changed = false;
     }
 

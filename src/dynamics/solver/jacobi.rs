@@ -7,12 +7,12 @@ use super::contact::{ContactConstraint, solve_friction};
 use super::iterative::Sweep;
 use super::ledger::{NO_LEDGER, RestitutionLedger};
 use super::sequential_impulses::{Arrival, RigidRows, ledger_bounce, ledger_velocity};
+use crate::dynamics::solver::refill;
 use crate::impulse::row_inverse_mass;
 
 /// How many contacts touch each body (for Jacobi mass splitting), into `counts`.
 pub(super) fn contact_counts(bodies: usize, contacts: &[ContactConstraint], counts: &mut Vec<u32>) {
-    counts.clear();
-    counts.resize(bodies, 0);
+    refill(counts, bodies, 0);
     for c in contacts {
         counts[c.body_a] += 1;
         counts[c.body_b] += 1;

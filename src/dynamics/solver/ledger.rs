@@ -5,6 +5,7 @@ use bevy::math::Vec3;
 
 use super::body::{Motion, SolverBody};
 use super::contact::ContactConstraint;
+use crate::dynamics::solver::refill;
 
 /// [`ContactConstraint::ledger`] of a row that keeps no ledger.
 pub const NO_LEDGER: u32 = u32::MAX;
@@ -67,8 +68,7 @@ impl RestitutionLedger {
             account,
         } = self;
         join_islands(bodies, contacts, parent);
-        account.clear();
-        account.resize(bodies.len(), NO_LEDGER);
+        refill(account, bodies.len(), NO_LEDGER);
         budget.clear();
         body_account.clear();
         for c in contacts.iter_mut() {

@@ -79,6 +79,13 @@ pub fn step(
     )
 }
 
+/// `buffer` as `len` copies of `value`: its earlier contents dropped, its memory kept (the
+/// solver's buffers are refilled so at every step, so that a steady step allocates nothing).
+pub(crate) fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
+    buffer.clear();
+    buffer.resize(len, value);
+}
+
 /// Memory the solve keeps from one step to the next (see [`step_with_scratch`]): only its
 /// buffers' allocations carry over, never their contents.
 #[derive(Clone, Debug, Default)]

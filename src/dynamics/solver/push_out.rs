@@ -21,6 +21,7 @@ use super::body::{Motion, SolverBody, pair_mut};
 use super::contact::ContactConstraint;
 use super::jacobi::split_mass;
 use super::sequential_impulses::RigidRows;
+use crate::dynamics::solver::refill;
 
 /// The pseudo-velocities of one substep's push-out, and the rows' accumulated push-out
 /// impulses; kept between substeps for their buffers.
@@ -72,8 +73,7 @@ impl PushOut {
         if !pushes {
             return false;
         }
-        self.impulses.clear();
-        self.impulses.resize(contacts.len(), 0.0);
+        refill(&mut self.impulses, contacts.len(), 0.0);
         for _ in 0..iterations.max(1) {
             let changed = match jacobi {
                 None => self.gauss_seidel_sweep(bodies, contacts),

@@ -1,5 +1,7 @@
 //! Compressed rows: for each of `n` keys (bodies), the values given to it, in one buffer.
 
+use super::refill;
+
 /// For each key `0..n`, the values an iterator of `(key, value)` entries gave it, in entry
 /// order, stored as compressed rows (one buffer of values and each key's start in it). The
 /// buffers are kept between builds, so rebuilding a table of the same size allocates nothing.
@@ -22,8 +24,7 @@ impl CompressedRows {
             values,
             fill,
         } = self;
-        start.clear();
-        start.resize(n + 1, 0);
+        refill(start, n + 1, 0);
         for (key, _) in entries.clone() {
             start[key + 1] += 1;
         }
@@ -32,8 +33,7 @@ impl CompressedRows {
         }
         fill.clear();
         fill.extend_from_slice(start);
-        values.clear();
-        values.resize(start[n] as usize, 0);
+        refill(values, start[n] as usize, 0);
         for (key, value) in entries {
             values[fill[key] as usize] = value;
             fill[key] += 1;

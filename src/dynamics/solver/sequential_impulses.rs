@@ -15,6 +15,7 @@ use super::ledger::{RestitutionLedger, contact_island, join_islands};
 use super::propagation::{self, time_of_impact};
 use super::push_out::PushOut;
 use super::{SolverConfig, SolverMethod, SolverStats};
+use crate::dynamics::solver::refill;
 
 /// Sequential impulses' and Jacobi's buffers, kept from step to step: their contents are
 /// rebuilt every step; only their memory is reused.
@@ -251,8 +252,7 @@ impl CarriedImpulses {
             }
         }
         join_islands(bodies, contacts, &mut self.parent);
-        self.work.clear();
-        self.work.resize(bodies.len(), (0.0, 0.0));
+        refill(&mut self.work, bodies.len(), (0.0, 0.0));
         for (c, u0) in contacts.iter().zip(&self.speeds) {
             let l = carried(c);
             if l == [0.0; 3] {

@@ -1,6 +1,7 @@
 //! The load each manifold carries, which sets its stiffness in the resting phase.
 
 use super::*;
+use crate::dynamics::solver::refill;
 
 /// Sets each supported block's [`Block::load`]: the mass of its upper body plus everything that
 /// body carries, shared equally among the body's supports. `blocks` must be in `shock_order`'s
@@ -43,8 +44,7 @@ pub(super) fn carried_loads(
     moment.extend(bodies.iter().enumerate().map(|(i, b)| mass(i) * b.position));
     // Only touching blocks share the load; a speculative one (not touching) is given the whole
     // load of its upper body, as if it were its only support, and passes none on.
-    supports.clear();
-    supports.resize(bodies.len(), 0);
+    refill(supports, bodies.len(), 0);
     for block in blocks.iter().filter(|b| b.touching) {
         if let Some(upper) = block.upper(contacts) {
             supports[upper] += 1;

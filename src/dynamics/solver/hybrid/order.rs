@@ -2,6 +2,7 @@
 //! held, the contacts laid out block by block).
 
 use super::*;
+use crate::dynamics::solver::refill;
 use crate::dynamics::solver::rows::CompressedRows;
 
 /// The manifolds of the hybrid method's resting solve, ordered from the ground up and each with
@@ -198,16 +199,14 @@ fn counting_sort(
     sorted: &mut Vec<u32>,
     bucket: impl Fn(u32) -> usize,
 ) {
-    start.clear();
-    start.resize(buckets + 1, 0);
+    refill(start, buckets + 1, 0);
     for k in items.clone() {
         start[bucket(k) + 1] += 1;
     }
     for i in 0..buckets {
         start[i + 1] += start[i];
     }
-    sorted.clear();
-    sorted.resize(start[buckets] as usize, 0);
+    refill(sorted, start[buckets] as usize, 0);
     for k in items {
         let b = bucket(k);
         sorted[start[b] as usize] = k;
@@ -307,8 +306,7 @@ pub(super) fn frictional_groups(
     supports: &mut Vec<(u32, bool)>,
     released: &mut Vec<bool>,
 ) {
-    supports.clear();
-    supports.resize(bodies, (0, false));
+    refill(supports, bodies, (0, false));
     for block in blocks.iter().filter(|b| b.touching) {
         if let Some(upper) = block.upper(contacts) {
             supports[upper].0 += 1;

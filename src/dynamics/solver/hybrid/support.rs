@@ -2,6 +2,7 @@
 //! directions it cannot move in (see `support_holds`).
 
 use super::*;
+use crate::dynamics::solver::refill;
 
 /// A touching manifold that supports a body, as [`support_holds`] sees it from that body.
 #[derive(Clone, Copy, Debug, Default)]
@@ -81,8 +82,7 @@ pub(super) fn support_holds(
         count,
         entries,
     } = scratch;
-    start.clear();
-    start.resize(bodies.len() + 1, 0);
+    refill(start, bodies.len() + 1, 0);
     for block in blocks.iter() {
         if let Some(upper) = block.upper(contacts) {
             start[upper + 1] = (start[upper + 1] + 1).min(MAX_SUPPORTS as u32);
@@ -95,10 +95,8 @@ pub(super) fn support_holds(
     // block that supports a body whose entries a needed block reads. A block reads the
     // entries of its support only after the blocks before it have set them, so a block is
     // needed by the needed readers after it.
-    needed.clear();
-    needed.resize(blocks.len(), false);
-    read.clear();
-    read.resize(bodies.len(), false);
+    refill(needed, blocks.len(), false);
+    refill(read, bodies.len(), false);
     for (k, block) in blocks.iter().enumerate().rev() {
         let Some((upper, lower)) = block.pair(contacts) else {
             continue;
@@ -108,10 +106,12 @@ pub(super) fn support_holds(
             read[lower] |= bodies[lower].motion == Motion::Dynamic;
         }
     }
-    count.clear();
-    count.resize(bodies.len(), 0);
-    entries.clear();
-    entries.resize(start[bodies.len()] as usize, SupportEntry::default());
+    refill(count, bodies.len(), 0);
+    refill(
+        entries,
+        start[bodies.len()] as usize,
+        SupportEntry::default(),
+    );
     for (block, _) in blocks.iter_mut().zip(needed.iter()).filter(|(_, n)| **n) {
         let Some((upper, lower)) = block.pair(contacts) else {
             continue;

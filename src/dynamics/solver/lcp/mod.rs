@@ -24,6 +24,7 @@ use bevy::math::{DMat3, DVec3};
 
 use super::body::SolverBody;
 use super::contact::ContactConstraint;
+use crate::dynamics::solver::refill;
 
 /// Relative regularisation of the diagonal (see the module doc): far below the f32 rounding
 /// of the velocities (1e-7), far above f64's (1e-16), which a redundant row's pivot is.
@@ -124,21 +125,18 @@ impl DenseSolve {
         // factor and the free set: the textbook algorithm reads best whole.
         let n = self.rows.len();
         let tolerance = 1e-12 * self.q.iter().fold(f64::MIN_POSITIVE, |m, q| m.max(q.abs()));
-        self.computed.clear();
-        self.computed.resize(n, false);
+        refill(&mut self.computed, n, false);
         // Every entry read is written first: no clearing.
         for buffer in [&mut self.k, &mut self.factor] {
             if buffer.len() < n * n {
                 buffer.resize(n * n, 0.0);
             }
         }
-        self.lambda.clear();
-        self.lambda.resize(n, 0.0);
+        refill(&mut self.lambda, n, 0.0);
         self.w.clear();
         self.w.extend_from_slice(&self.q);
         self.free.clear();
-        self.is_free.clear();
-        self.is_free.resize(n, false);
+        refill(&mut self.is_free, n, false);
         // Each step adds a row or removes one, and a row enters only with the objective
         // falling: a bound far above what is needed (about n steps) that only a failure meets.
         for _ in 0..4 * n + 8 {
@@ -273,10 +271,8 @@ impl DenseSolve {
     fn solve_free(&mut self) {
         let n = self.rows.len();
         let m = self.free.len();
-        self.y.clear();
-        self.y.resize(m, 0.0);
-        self.z.clear();
-        self.z.resize(m, 0.0);
+        refill(&mut self.y, m, 0.0);
+        refill(&mut self.z, m, 0.0);
         for f in 0..m {
             let mut s = -self.q[self.free[f]];
             for h in 0..f {

@@ -12,6 +12,7 @@ use super::super::lcp::{self, DenseSolve};
 use super::Propagation;
 use super::friction::{EVENT_FRICTION_ROUNDS, apply_friction, retarget};
 use super::timing::*;
+use crate::dynamics::solver::refill;
 use crate::impulse::row_impulse;
 
 /// An inelastic impact event (every contact of its groups `e = 0`) takes in the touching
@@ -64,8 +65,7 @@ impl EventScratch {
     pub(super) fn reset(&mut self, bodies: usize) {
         // `before` names the last pass's bodies, whose slots the next event would clear.
         self.before.clear();
-        self.slot.clear();
-        self.slot.resize(bodies, u32::MAX);
+        refill(&mut self.slot, bodies, u32::MAX);
     }
 
     /// The last event changed the velocities of `body`, one of its bodies.
@@ -288,8 +288,7 @@ pub(super) fn solve_block(
     dense: &mut DenseSolve,
     params: &Propagation,
 ) {
-    impulses.clear();
-    impulses.resize(rows.len(), 0.0);
+    refill(impulses, rows.len(), 0.0);
     let solving = state.iter().filter(|(_, t, _)| !t.is_nan()).count();
     let mut iterations = if solving == 1 {
         1

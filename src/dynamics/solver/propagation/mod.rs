@@ -17,6 +17,7 @@ use bevy::math::Vec3;
 
 use super::body::{Motion, SolverBody};
 use super::contact::ContactConstraint;
+use crate::dynamics::solver::refill;
 use event::*;
 use timing::*;
 pub(super) use timing::{relative_gravity, time_of_impact};
@@ -194,12 +195,6 @@ impl Clone for PropagationScratch {
     fn clone(&self) -> Self {
         PropagationScratch::default()
     }
-}
-
-/// `buffer` as `len` copies of `value` (its earlier contents dropped, its memory kept).
-fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
-    buffer.clear();
-    buffer.resize(len, value);
 }
 
 /// [`propagate`], with its buffers in `scratch`: the same results.

@@ -10,6 +10,7 @@ use super::super::body::{Motion, SolverBody};
 use super::super::contact::ContactConstraint;
 use super::super::rows::CompressedRows;
 use super::Propagation;
+use crate::dynamics::solver::refill;
 
 /// The dynamic bodies that touch, through contacts touching at the start of the step or met at
 /// an impact of this pass (a union-find over bodies), and, per cluster, the earliest approach
@@ -52,8 +53,7 @@ impl Clusters {
     ) {
         self.parent.clear();
         self.parent.extend(0..bodies.len() as u32);
-        self.waiting.clear();
-        self.waiting.resize(bodies.len(), (0, 0.0));
+        refill(&mut self.waiting, bodies.len(), (0, 0.0));
         self.sweep = 0;
         for (range, &pair) in groups.iter().zip(pairs) {
             if let Some((a, b)) = pair
