@@ -1,6 +1,7 @@
 //! Same inputs give bit-identical results whatever the number of threads: the narrow phase
-//! computes its manifolds on Bevy's compute task pool (feature `parallel`, on by default), and
-//! its results must not depend on how the pairs were split between threads.
+//! computes its manifolds on Bevy's compute task pool (feature `parallel`, on by default;
+//! serially on a pool of one thread), and its results must not depend on how the pairs were
+//! split between threads.
 //!
 //! Bevy's task pools are process-wide and created once, so each thread count runs in a child
 //! process: this test binary again, running the ignored `threaded_pour` with
@@ -18,11 +19,16 @@ use impact3d::scenes;
 
 /// Runs a 300-body mixed pour with friction (spheres, boxes, capsules, hulls; many contact
 /// pairs a step) for 120 steps at 60 Hz, sleeping off, on a task pool of `threads` threads,
-/// and hashes every body's position and rotation bits.
+/// and hashes every body's position and rotation bits. `threads` is the compute pool's size
+/// (Bevy's `with_num_threads` would give the compute pool one thread of 2, the rest going to
+/// the IO and async pools, and one thread runs the narrow phase serially).
 fn pour_hash(threads: usize) -> u64 {
+    let mut options = TaskPoolOptions::default();
+    options.compute.min_threads = threads;
+    options.compute.max_threads = threads;
     let (mut app, bodies) = mixed_pour((
         MinimalPlugins.set(TaskPoolPlugin {
-            task_pool_options: TaskPoolOptions::with_num_threads(threads),
+            task_pool_options: options,
         }),
         PhysicsPlugins::default(),
     ));
@@ -43,7 +49,7 @@ fn threaded_pour() {
     }
 }
 
-/// The pour's pose hash is the same on task pools of 1, 2 and 4 threads (each in its own
+/// The pour's pose hash is the same on compute pools of 1, 2 and 4 threads (each in its own
 /// process) and in this process: exact equality, the promise is bit-identical results.
 #[test]
 fn same_results_on_any_number_of_threads() {
