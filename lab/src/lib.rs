@@ -21,6 +21,7 @@ pub mod scaling;
 pub mod scenes;
 pub mod sleeping;
 pub mod sweep;
+pub mod threads;
 
 use std::path::PathBuf;
 use std::time::Instant;

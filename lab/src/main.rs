@@ -1,18 +1,18 @@
 //! `cargo run --release -p impact3d-lab [-- --quick] [--out DIR] [--no-peers] [--scenes A,B]
-//! [--sleeping] [--queries] [--scaling]`: runs the speed-vs-accuracy sweep and writes CSV and SVG
-//! files (default folder `lab/results`). The binary installs the counting allocator
+//! [--sleeping] [--queries] [--scaling] [--threads N[,M..]]`: runs the speed-vs-accuracy sweep
+//! and writes CSV and SVG files (default folder `lab/results`). The binary installs the counting allocator
 //! ([`impact3d_lab::alloc`]) for `--scaling`'s memory figures.
 
 use std::path::PathBuf;
-use std::process::ExitCode;
+use std::process::{Command, ExitCode};
 
-use impact3d_lab::{Mode, Options, alloc, queries, run, scaling};
+use impact3d_lab::{Mode, Options, alloc, queries, run, scaling, threads};
 
 #[global_allocator]
 static ALLOCATOR: alloc::Counting = alloc::Counting;
 
 const USAGE: &str =
-    "usage: impact3d-lab [--quick] [--out DIR] [--no-peers] [--scenes A,B] [--sleeping] [--queries] [--scaling]
+    "usage: impact3d-lab [--quick] [--out DIR] [--no-peers] [--scenes A,B] [--sleeping] [--queries] [--scaling] [--threads N[,M..]]
   --quick        a few scenes, small and short, reduced sweep (under two minutes); with
                  --scaling, smaller sizes
   --out DIR      output folder (default: lab/results)
@@ -22,7 +22,13 @@ const USAGE: &str =
   --queries      time only ray casts (10,000 rays into 10,000 static bodies)
   --scaling      time and memory per body against N, each engine at its defaults: spheres in
                  free flight (10,000, 40,000, 100,000) and poured into the walled box (1,000,
-                 4,000, 16,000); writes scaling.csv and scaling.md (three rounds, about 15 minutes)";
+                 4,000, 16,000); writes scaling.csv, scaling.md and scaling.svg (three rounds,
+                 about 8 minutes on 2 cores)
+  --threads N    the threads of Bevy's compute pool, which impact3d's parallel sections use
+                 (default 1: serial; needs the `parallel` feature). With --scaling a list
+                 (1,2) runs the plan once per count, each in a process of its own (the peers
+                 with the first count only), into one report with impact3d's speed-up per
+                 count; other modes take 1 only";
 
 fn main() -> ExitCode {
     let mut options = Options {
@@ -35,6 +41,7 @@ fn main() -> ExitCode {
     };
     let mut queries = false;
     let mut scaling = false;
+    let mut thread_counts = vec![1];
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
         match arg.as_str() {
@@ -43,6 +50,15 @@ fn main() -> ExitCode {
             "--sleeping" => options.sleeping_only = true,
             "--queries" => queries = true,
             "--scaling" => scaling = true,
+            "--threads" => match args.next().as_deref().and_then(threads::parse_list) {
+                Some(list) => thread_counts = list,
+                None => {
+                    eprintln!(
+                        "--threads needs a count or a comma-separated list, each >= 1\n{USAGE}"
+                    );
+                    return ExitCode::FAILURE;
+                }
+            },
             "--scenes" => match args.next() {
                 Some(names) => options.only = names.split(',').map(str::to_string).collect(),
                 None => {
@@ -73,6 +89,20 @@ fn main() -> ExitCode {
     if cfg!(debug_assertions) {
         eprintln!("warning: debug build; timings are only meaningful with --release");
     }
+    if scaling && thread_counts.len() > 1 {
+        return run_scaling_per_thread_count(&options, &thread_counts);
+    }
+    if !scaling && thread_counts != [1] {
+        eprintln!("--threads other than 1 is for --scaling only\n{USAGE}");
+        return ExitCode::FAILURE;
+    }
+    if !threads::set_up(thread_counts[0]) {
+        eprintln!(
+            "cannot run impact3d on {} thread(s) here (built without the `parallel` feature?)",
+            thread_counts[0]
+        );
+        return ExitCode::FAILURE;
+    }
     if queries {
         let rays = 10_000;
         let rows = queries::run(rays, 3, options.peers && cfg!(feature = "peers"));
@@ -102,16 +132,7 @@ fn main() -> ExitCode {
 fn run_scaling(options: &Options) -> ExitCode {
     let plan = scaling::Plan::for_mode(options.mode);
     let peers = options.peers && cfg!(feature = "peers");
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let command = format!(
-        "cargo run --release -p impact3d-lab{} -- {}",
-        if cfg!(feature = "peers") {
-            ""
-        } else {
-            " --no-default-features"
-        },
-        args.join(" ")
-    );
+    let command = command_line();
     let counted = alloc::installed();
     let started = std::time::Instant::now();
     let rows = scaling::run(&plan, peers, |round, r| {
@@ -130,6 +151,74 @@ fn run_scaling(options: &Options) -> ExitCode {
     println!("{}", scaling::table(&plan, &rows, &command, counted));
     eprintln!("scaling run: {:.0} s", started.elapsed().as_secs_f64());
     match scaling::write(&options.out, &plan, &rows, &command, counted) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("writing results failed: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// This run's command, as the reports quote it.
+fn command_line() -> String {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    format!(
+        "cargo run --release -p impact3d-lab{} -- {}",
+        if cfg!(feature = "peers") {
+            ""
+        } else {
+            " --no-default-features"
+        },
+        args.join(" ")
+    )
+}
+
+/// `--scaling --threads 1,2`: Bevy's task pools are set once per process, so each thread
+/// count runs the plan in a child process of this program (the peers with the first count
+/// only), which writes its files into `out/threads-N`; their rows are then reported together.
+fn run_scaling_per_thread_count(options: &Options, counts: &[usize]) -> ExitCode {
+    let plan = scaling::Plan::for_mode(options.mode);
+    let exe = match std::env::current_exe() {
+        Ok(exe) => exe,
+        Err(e) => {
+            eprintln!("cannot find this program to run it again: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let mut rows = Vec::new();
+    for (k, &n) in counts.iter().enumerate() {
+        let dir = options.out.join(format!("threads-{n}"));
+        let mut child = Command::new(&exe);
+        child
+            .args(["--scaling", "--threads", &n.to_string(), "--out"])
+            .arg(&dir);
+        if options.mode == Mode::Quick {
+            child.arg("--quick");
+        }
+        if k > 0 || !options.peers {
+            child.arg("--no-peers");
+        }
+        match child.status() {
+            Ok(status) if status.success() => {}
+            other => {
+                eprintln!("the run on {n} thread(s) failed: {other:?}");
+                return ExitCode::FAILURE;
+            }
+        }
+        let read = std::fs::read_to_string(dir.join("scaling.csv"))
+            .ok()
+            .and_then(|text| scaling::read_csv(&text));
+        let Some(mut of_n) = read else {
+            eprintln!("the run on {n} thread(s) wrote no readable scaling.csv");
+            return ExitCode::FAILURE;
+        };
+        rows.append(&mut of_n);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    rows.sort_by_key(|r| (r.family.name(), r.n));
+    let command = command_line();
+    println!("{}", scaling::table(&plan, &rows, &command, true));
+    match scaling::write(&options.out, &plan, &rows, &command, true) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("writing results failed: {e}");

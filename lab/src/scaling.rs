@@ -32,6 +32,8 @@ use crate::report::machine_and_date;
 use crate::scenes::{BodyState, Check, Kind, Scene, Shape};
 use crate::sweep::{AVIAN_DEFAULT_SUBSTEPS, EngineKind, RAPIER_DEFAULT_ITERATIONS, RunConfig};
 
+mod chart;
+
 /// The step rate of every run.
 const HZ: u32 = 60;
 /// Free fall, m/s^2, for the pour's landing time.
@@ -213,6 +215,9 @@ pub struct ScaleRow {
     pub family: Family,
     /// "impact3d", "avian3d" or "rapier3d".
     pub engine: &'static str,
+    /// Threads at work in the engine's process ([`crate::threads::at_work`]; 1 for Rapier,
+    /// which the lab builds without its `parallel` feature).
+    pub threads: usize,
     /// Dynamic bodies.
     pub n: usize,
     /// Steps run before the timed ones.
@@ -238,6 +243,15 @@ pub struct ScaleRow {
 }
 
 impl ScaleRow {
+    /// The engine, with its thread count when more than one ("impact3d x2").
+    pub fn label(&self) -> String {
+        if self.threads > 1 {
+            format!("{} x{}", self.engine, self.threads)
+        } else {
+            self.engine.to_string()
+        }
+    }
+
     /// Microseconds of a step per body.
     pub fn us_per_body(&self) -> f64 {
         self.ms_per_step * 1e3 / self.n as f64
@@ -320,6 +334,10 @@ fn run_one(
     ScaleRow {
         family,
         engine: config.engine_name(),
+        threads: match config.engine {
+            EngineKind::Rapier => 1,
+            _ => crate::threads::at_work(),
+        },
         n,
         warm_up,
         steps,
@@ -359,27 +377,27 @@ fn touching_pairs(states: &[BodyState], reach: f32) -> usize {
     pairs
 }
 
-/// Time per body at the largest size over that at the smallest, per engine and scene: the
-/// issue's criterion is under 1.3.
-pub fn ratios(rows: &[ScaleRow]) -> Vec<(Family, &'static str, f64)> {
+/// Time per body at the largest size over that at the smallest, per engine (and thread count)
+/// and scene, the engine as [`ScaleRow::label`] names it: the issue's criterion is under 1.3.
+pub fn ratios(rows: &[ScaleRow]) -> Vec<(Family, String, f64)> {
     let mut out = Vec::new();
     for family in [Family::Flight, Family::Pour] {
-        let mut engines: Vec<&'static str> = Vec::new();
+        let mut engines: Vec<(&'static str, usize)> = Vec::new();
         for r in rows.iter().filter(|r| r.family == family) {
-            if !engines.contains(&r.engine) {
-                engines.push(r.engine);
+            if !engines.contains(&(r.engine, r.threads)) {
+                engines.push((r.engine, r.threads));
             }
         }
-        for engine in engines {
+        for (engine, threads) in engines {
             let of = || {
                 rows.iter()
-                    .filter(|r| r.family == family && r.engine == engine)
+                    .filter(|r| r.family == family && r.engine == engine && r.threads == threads)
             };
             let smallest = of().min_by_key(|r| r.n).expect("a row");
             let largest = of().max_by_key(|r| r.n).expect("a row");
             out.push((
                 family,
-                engine,
+                smallest.label(),
                 largest.us_per_body() / smallest.us_per_body(),
             ));
         }
@@ -404,7 +422,7 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
          `SolverConfig` ({method:?}, {substeps} substeps x {iterations} iteration(s)), avian3d ({AVIAN_DEFAULT_SUBSTEPS} \
          substeps) and Rapier ({RAPIER_DEFAULT_ITERATIONS} solver iterations) as the lab sets \
          them up for every scene (restitution and friction per body with the `Max` combine rule, \
-         avian3d's restitution threshold at impact3d's 0.5 m/s). One thread. The whole plan ran \
+         avian3d's restitution threshold at impact3d's 0.5 m/s). {threads} The whole plan ran \
          {rounds} time(s), one round after the other; each row keeps its fastest round's median \
          (`spread`: slowest round / fastest - 1).\n\n\
          - **flight**: N spheres (r = 0.25 m) on a 3D grid 2 m apart, moving at 0.1-0.35 m/s, \
@@ -422,6 +440,7 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
          rest of the lab: one run of the Bevy schedule the plugin steps in, or one Rapier \
          `PhysicsPipeline::step`); us/body is that divided by N.\n\n",
         machine = machine_and_date(),
+        threads = threads_note(rows),
         rounds = plan.rounds,
         substeps = SolverConfig::default().substeps,
         iterations = SolverConfig::default().iterations,
@@ -451,14 +470,15 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
         );
     }
     out.push_str(
-        "| scene | engine | N | warm-up steps | timed steps | ms/step | spread | us/body | bytes/body | allocs/step | max speed (m/s) | neighbours |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | engine | threads | N | warm-up steps | timed steps | ms/step | spread | us/body | bytes/body | allocs/step | max speed (m/s) | neighbours |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         out.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {:.3} | {:.0} % | {:.3} | {:.0} | {:.1} | {:.2} | {:.2} |\n",
+            "| {} | {} | {} | {} | {} | {} | {:.3} | {:.0} % | {:.3} | {:.0} | {:.1} | {:.2} | {:.2} |\n",
             r.family.name(),
             r.engine,
+            r.threads,
             r.n,
             r.warm_up,
             r.steps,
@@ -482,11 +502,74 @@ pub fn table(plan: &Plan, rows: &[ScaleRow], command: &str, counted: bool) -> St
             if ratio < 1.3 { "yes" } else { "no" }
         ));
     }
+    let speed_ups = speed_ups(rows);
+    if !speed_ups.is_empty() {
+        out.push_str(
+            "\nimpact3d on more threads: its step time on one thread over its time on N, same \
+             scene and size (issue 11: at least 1.6 on two threads for the 4,000-sphere pour \
+             and the 10,000-sphere free flight):\n\n\
+             | scene | N | threads | ms/step, 1 thread | ms/step | speed-up |\n\
+             |---|---|---|---|---|---|\n",
+        );
+        for (one, many) in speed_ups {
+            out.push_str(&format!(
+                "| {} | {} | {} | {:.3} | {:.3} | {:.2} |\n",
+                one.family.name(),
+                one.n,
+                many.threads,
+                one.ms_per_step,
+                many.ms_per_step,
+                one.ms_per_step / many.ms_per_step
+            ));
+        }
+    }
     out
 }
 
+/// What the report says of threads: one for every engine, or which ran on more.
+fn threads_note(rows: &[ScaleRow]) -> String {
+    let mut counts: Vec<usize> = rows
+        .iter()
+        .filter(|r| r.engine == "impact3d")
+        .map(|r| r.threads)
+        .collect();
+    counts.sort_unstable();
+    counts.dedup();
+    if counts.iter().all(|&t| t == 1) {
+        return "One thread.".into();
+    }
+    let list = counts
+        .iter()
+        .map(|t| t.to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "impact3d on {list} thread(s) (`--threads`: each count in a process of its own; the \
+         threads of Bevy's compute pool, see `lab/src/threads.rs`; only the narrow phase runs \
+         in parallel so far); avian3d and Rapier on one."
+    )
+}
+
+/// impact3d's rows on more than one thread, each with its one-thread row of the same scene
+/// and size.
+pub fn speed_ups(rows: &[ScaleRow]) -> Vec<(&ScaleRow, &ScaleRow)> {
+    rows.iter()
+        .filter(|r| r.engine == "impact3d" && r.threads > 1)
+        .filter_map(|many| {
+            rows.iter()
+                .find(|one| {
+                    one.engine == "impact3d"
+                        && one.threads == 1
+                        && one.family == many.family
+                        && one.n == many.n
+                })
+                .map(|one| (one, many))
+        })
+        .collect()
+}
+
 /// The CSV header of `scaling.csv`.
-pub const CSV_HEADER: &str = "scene,engine,n,warm_up_steps,timed_steps,ms_per_step,ms_spread,us_per_body,bytes_per_body,allocs_per_step,max_speed,neighbours";
+pub const CSV_HEADER: &str = "scene,engine,threads,n,warm_up_steps,timed_steps,ms_per_step,ms_spread,us_per_body,bytes_per_body,allocs_per_step,max_speed,neighbours";
 
 /// Writes `scaling.csv` and `scaling.md` into `out`.
 pub fn write(
@@ -499,9 +582,10 @@ pub fn write(
     let mut csv = format!("{CSV_HEADER}\n");
     for r in rows {
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.family.name(),
             r.engine,
+            r.threads,
             r.n,
             r.warm_up,
             r.steps,
@@ -516,5 +600,48 @@ pub fn write(
     }
     std::fs::create_dir_all(out)?;
     std::fs::write(out.join("scaling.csv"), csv)?;
-    std::fs::write(out.join("scaling.md"), table(plan, rows, command, counted))
+    std::fs::write(out.join("scaling.md"), table(plan, rows, command, counted))?;
+    chart::draw(&out.join("scaling.svg"), rows).map_err(|e| io::Error::other(e.to_string()))
+}
+
+/// Reads back the rows of a `scaling.csv` that [`write`] wrote (a child process's, for
+/// `--threads 1,2`). `None` for a file in another format.
+pub fn read_csv(text: &str) -> Option<Vec<ScaleRow>> {
+    let mut lines = text.lines();
+    if lines.next()? != CSV_HEADER {
+        return None;
+    }
+    lines
+        .map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            if f.len() != 13 {
+                return None;
+            }
+            let family = match f[0] {
+                "flight" => Family::Flight,
+                "pour" => Family::Pour,
+                _ => return None,
+            };
+            let engine = match f[1] {
+                "impact3d" => "impact3d",
+                "avian3d" => "avian3d",
+                "rapier3d" => "rapier3d",
+                _ => return None,
+            };
+            Some(ScaleRow {
+                family,
+                engine,
+                threads: f[2].parse().ok()?,
+                n: f[3].parse().ok()?,
+                warm_up: f[4].parse().ok()?,
+                steps: f[5].parse().ok()?,
+                ms_per_step: f[6].parse().ok()?,
+                spread: f[7].parse().ok()?,
+                bytes_per_body: f[9].parse().ok()?,
+                allocs_per_step: f[10].parse().ok()?,
+                max_speed: f[11].parse().ok()?,
+                neighbours: f[12].parse().ok()?,
+            })
+        })
+        .collect()
 }

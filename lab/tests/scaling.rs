@@ -1,6 +1,7 @@
 //! The scaling mode at its smoke sizes, on impact3d alone, with the counting allocator installed
 //! as the lab binary installs it: one row per engine, scene and size, positive times and memory,
-//! and both files written.
+//! the three files written and the CSV read back as written; and the report of a run on two
+//! thread counts pairs each size's rows into impact3d's speed-up.
 
 use impact3d_lab::Mode;
 use impact3d_lab::alloc;
@@ -60,12 +61,22 @@ fn smoke_scaling_writes_one_row_per_engine_and_size() {
     assert_eq!(data.len(), expected);
     for row in &data {
         assert_eq!(row.len(), CSV_HEADER.split(',').count(), "{row:?}");
-        for k in [5, 7, 8] {
+        for k in [6, 8, 9] {
             assert!(row[k].parse::<f64>().unwrap() > 0.0, "{row:?}");
         }
     }
     let md = std::fs::read_to_string(out.join("scaling.md")).unwrap();
-    assert!(md.contains("| flight | impact3d | 100 |") && md.contains("| pour | impact3d | 200 |"));
+    assert!(
+        md.contains("| flight | impact3d | 1 | 100 |")
+            && md.contains("| pour | impact3d | 1 | 200 |")
+    );
+    assert!(md.contains("One thread.") && !md.contains("speed-up"));
+    let svg = std::fs::read_to_string(out.join("scaling.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("us per body"));
+    // Read back, every row is the row written (the CSV's floats print exactly: Rust's
+    // shortest round-trip form).
+    let back = scaling::read_csv(&csv).expect("the CSV reads back");
+    assert_eq!(back, rows);
     assert!(md.contains("under 1.3") && md.contains("global allocator"));
     let usual = impact3d::prelude::SolverConfig::default();
     assert!(md.contains(&format!(
@@ -74,4 +85,28 @@ fn smoke_scaling_writes_one_row_per_engine_and_size() {
     )));
     assert!(md.contains(&format!("ran {} time(s)", plan.rounds)));
     std::fs::remove_dir_all(&out).unwrap();
+
+    // The same rows as if also run on two threads at a third of the time: each impact3d row
+    // on two threads pairs with its one-thread row, speed-up 3.
+    let mut both = rows.clone();
+    both.extend(rows.iter().map(|r| scaling::ScaleRow {
+        threads: 2,
+        ms_per_step: r.ms_per_step / 3.0,
+        ..r.clone()
+    }));
+    let pairs = scaling::speed_ups(&both);
+    assert_eq!(pairs.len(), rows.len());
+    for (one, two) in &pairs {
+        assert_eq!((one.threads, two.threads), (1, 2));
+        assert_eq!((one.family, one.n), (two.family, two.n));
+        assert!((one.ms_per_step / two.ms_per_step - 3.0).abs() < 1e-9);
+    }
+    let md = scaling::table(&plan, &both, "test", true);
+    assert!(
+        md.contains("| flight | 100 | 2 |") && md.contains("| 3.00 |"),
+        "{md}"
+    );
+    assert!(md.contains("impact3d on 1, 2 thread(s)"));
+    let ratios = scaling::ratios(&both);
+    assert!(ratios.iter().any(|(_, label, _)| label == "impact3d x2"));
 }
