@@ -197,8 +197,9 @@ fn all_pair_geometry(
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     let mut pairs = pairs.pairs_mut();
     let per_task = pairs_per_task(pairs.len(), pool.thread_num());
-    // A pool of one thread runs serially, as Bevy's `Query::par_iter` does: the tasks would
-    // only add their overhead to the same thread's work.
+    // A pool of one thread runs serially, as Bevy's `Query::par_iter` does. (Its one worker and
+    // the waiting main thread splitting the pairs bought nothing measurable: a 1,000-sphere
+    // pour took 4.2-5.4 ms a step that way, 4.6-5.6 ms on one thread.)
     if !cfg!(feature = "parallel") || pool.thread_num() <= 1 || per_task >= pairs.len() {
         out.extend(pairs.iter_mut().enumerate().map(|(k, p)| geometry(k, p)));
         return;
