@@ -107,18 +107,17 @@ fn main() -> ExitCode {
         let rays = 10_000;
         let rows = queries::run(rays, 3, options.peers && cfg!(feature = "peers"));
         println!("{}", queries::table(&rows, rays));
-        return match queries::write(&options.out, &rows, rays) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("writing results failed: {e}");
-                ExitCode::FAILURE
-            }
-        };
+        return written(queries::write(&options.out, &rows, rays));
     }
     if scaling {
         return run_scaling(&options);
     }
-    match run(&options) {
+    written(run(&options))
+}
+
+/// The exit code of a run whose results were written (`Ok`) or not, the error on stderr.
+fn written<T>(result: std::io::Result<T>) -> ExitCode {
+    match result {
         Ok(_) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("writing results failed: {e}");
@@ -150,13 +149,13 @@ fn run_scaling(options: &Options) -> ExitCode {
     });
     println!("{}", scaling::table(&plan, &rows, &command, counted));
     eprintln!("scaling run: {:.0} s", started.elapsed().as_secs_f64());
-    match scaling::write(&options.out, &plan, &rows, &command, counted) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("writing results failed: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    written(scaling::write(
+        &options.out,
+        &plan,
+        &rows,
+        &command,
+        counted,
+    ))
 }
 
 /// This run's command, as the reports quote it.
@@ -217,12 +216,13 @@ fn run_scaling_per_thread_count(options: &Options, counts: &[usize]) -> ExitCode
     }
     rows.sort_by_key(|r| (r.family.name(), r.n));
     let command = command_line();
-    println!("{}", scaling::table(&plan, &rows, &command, true));
-    match scaling::write(&options.out, &plan, &rows, &command, true) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("writing results failed: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    let counted = alloc::installed();
+    println!("{}", scaling::table(&plan, &rows, &command, counted));
+    written(scaling::write(
+        &options.out,
+        &plan,
+        &rows,
+        &command,
+        counted,
+    ))
 }
