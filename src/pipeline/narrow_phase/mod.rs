@@ -75,15 +75,32 @@ pub fn update_narrow_phase(
     let unit = binary_unit(state.settings.length_unit);
     let mut unit_shapes = std::mem::take(&mut state.unit_shapes);
     let scaled = unit_scaled_shapes(state, &candidates, &mut unit_shapes, unit);
-    all_pair_geometry(state, &candidates, &scaled, unit, &mut pairs, geometry);
-    for (pair_index, ((pair, &(ia, ib)), geometry)) in pairs
-        .pairs_mut()
-        .iter_mut()
-        .zip(&candidates.indices)
-        .zip(geometry.drain(..))
-        .enumerate()
-    {
-        pair_rows(state, rows, pressed, pair, pair_index, (ia, ib), geometry);
+    if let Some(split) = parallel_pairs(pairs.pairs_mut().len()) {
+        let pairs = &mut *pairs;
+        all_pair_geometry(state, &candidates, (&scaled, unit), pairs, split, geometry);
+        for (pair_index, ((pair, &(ia, ib)), geometry)) in pairs
+            .pairs_mut()
+            .iter_mut()
+            .zip(&candidates.indices)
+            .zip(geometry.drain(..))
+            .enumerate()
+        {
+            pair_rows(state, rows, pressed, pair, pair_index, (ia, ib), geometry);
+        }
+    } else {
+        // On one thread each pair's rows are read off its manifolds right after they are
+        // updated, while they are still in the cache: read in a second pass over thousands of
+        // pairs, the manifolds' first load was 11 % of a settled pile's step (2,000 spheres).
+        for (pair_index, (pair, &(ia, ib))) in pairs
+            .pairs_mut()
+            .iter_mut()
+            .zip(&candidates.indices)
+            .enumerate()
+        {
+            let scaled = scaled.get(pair_index).and_then(Option::as_ref);
+            let geometry = pair_geometry(state, &candidates, scaled, unit, pair_index, pair);
+            pair_rows(state, rows, pressed, pair, pair_index, (ia, ib), geometry);
+        }
     }
     unit_shapes.prune();
     state.unit_shapes = unit_shapes;
@@ -171,46 +188,31 @@ fn unit_scaled_shapes(
 }
 
 /// The manifolds of every pair, independently of the others, into `out` in pair order: in
-/// parallel on Bevy's compute task pool, in chunks whose results come back in pair order, so
-/// the step is the same on any number of threads. Without feature `parallel`, or with pairs
-/// for one task only, on this thread: the task pool's scope allocates for its tasks every
-/// step, which a one-thread build has no use for.
+/// parallel on Bevy's compute task pool (`split`: the pool and the pairs per task, from
+/// [`parallel_pairs`]), in chunks whose results come back in pair order, so the step is the
+/// same on any number of threads.
 fn all_pair_geometry(
     state: &PhysicsState,
     candidates: &CandidatePairs,
-    scaled: &[Option<(SharedShape, SharedShape)>],
-    unit: f32,
+    (scaled, unit): (&[Option<(SharedShape, SharedShape)>], f32),
     pairs: &mut ContactPairs,
+    (pool, per_task): (&ComputeTaskPool, usize),
     out: &mut Vec<Geometry>,
 ) {
-    let geometry = |pair_index: usize, pair: &mut ContactPair| {
-        pair_geometry(
-            state,
-            candidates,
-            scaled.get(pair_index).and_then(Option::as_ref),
-            unit,
-            pair_index,
-            pair,
-        )
-    };
     out.clear();
-    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    let mut pairs = pairs.pairs_mut();
-    let per_task = pairs_per_task(pairs.len(), pool.thread_num());
-    // A pool of one thread runs serially, as Bevy's `Query::par_iter` does. (Its one worker and
-    // the waiting main thread splitting the pairs bought nothing measurable: a 1,000-sphere
-    // pour took 4.2-5.4 ms a step that way, 4.6-5.6 ms on one thread.)
-    if !cfg!(feature = "parallel") || pool.thread_num() <= 1 || per_task >= pairs.len() {
-        out.extend(pairs.iter_mut().enumerate().map(|(k, p)| geometry(k, p)));
-        return;
-    }
-    let chunks = pairs.par_chunk_map_mut(pool, per_task, |chunk, pairs| {
-        pairs
-            .iter_mut()
-            .enumerate()
-            .map(|(k, pair)| geometry(chunk * per_task + k, pair))
-            .collect::<Vec<_>>()
-    });
+    let chunks = pairs
+        .pairs_mut()
+        .par_chunk_map_mut(pool, per_task, |chunk, pairs| {
+            pairs
+                .iter_mut()
+                .enumerate()
+                .map(|(k, pair)| {
+                    let pair_index = chunk * per_task + k;
+                    let scaled = scaled.get(pair_index).and_then(Option::as_ref);
+                    pair_geometry(state, candidates, scaled, unit, pair_index, pair)
+                })
+                .collect::<Vec<_>>()
+        });
     out.extend(chunks.into_iter().flatten());
 }
 
@@ -410,6 +412,20 @@ fn detected_parts(
         }
     }
     rows.detected_parts.len() > start
+}
+
+/// The compute task pool and the pairs per task when the manifold pass over `pairs` pairs runs
+/// in parallel; `None` when it runs on this thread: without feature `parallel`, on a pool of
+/// one thread (as Bevy's `Query::par_iter` does; its one worker and the waiting main thread
+/// splitting the pairs bought nothing measurable: a 1,000-sphere pour took 4.2-5.4 ms a step
+/// that way, 4.6-5.6 ms on one thread), or with pairs for one task only.
+fn parallel_pairs(pairs: usize) -> Option<(&'static ComputeTaskPool, usize)> {
+    if !cfg!(feature = "parallel") {
+        return None;
+    }
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    let per_task = pairs_per_task(pairs, pool.thread_num());
+    (pool.thread_num() > 1 && per_task < pairs).then_some((pool, per_task))
 }
 
 /// Fewest candidate pairs per task of the narrow phase's parallel manifold pass.
