@@ -280,11 +280,14 @@ fn pair_rows(
         rows.detected.push(pair_index as u32);
     }
     let mut face = None;
-    for (m, k, point, normal, dist) in pair.world_points(pose_a, pose_b) {
+    // Internal iteration (`for_each`): a `for` loop over the manifolds' flattened points paid
+    // `Flatten::next` on every point, 5 % of a 1,000-sphere pour's step.
+    let points = pair.world_points(pose_a, pose_b);
+    points.for_each(|(m, k, point, normal, dist)| {
         let Some((restitution, friction)) =
             part_material(parts.as_deref(), m, restitution, friction)
         else {
-            continue;
+            return;
         };
         let normal = match face {
             Some((manifold, n)) if manifold == m => n,
@@ -300,7 +303,7 @@ fn pair_rows(
             turning.carry(&mut c, &turning.motion.pose, face, &state.bodies, state.dt);
         }
         push_row(rows, pair, c, (pair_index, m, k));
-    }
+    });
     close_pair_range(&rows.contacts, &mut rows.pair_ranges, start);
 }
 
