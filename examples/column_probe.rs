@@ -10,7 +10,10 @@
 //! Environment: `METHOD=soft` (the soft step instead of the default), `N` (cubes), `RATIO` (light
 //! over heavy mass), `ONLY=60,1` (one rate and friction, with each step's rise on stderr),
 //! `TRACE=1` (every 10th step, each cube's horizontal offset / tilt, rad), and overrides of
-//! `SolverConfig`: `SUB`, `ITER`, `RELAX`, `BLOCK`, `HERTZ`, `PUSH`, `WARM=0`.
+//! `SolverConfig`: `HZ` (contact hertz), `SUB`, `ITER`, `RELAX`, `BLOCK`, `PUSH`, `WARM=0`.
+#[path = "support/config_env.rs"]
+mod config_env;
+
 use bevy::prelude::*;
 use impact3d::prelude::*;
 use impact3d::scenes;
@@ -64,28 +67,7 @@ fn main() {
             } else {
                 SolverMethod::Hybrid
             });
-            let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f32>().ok());
-            if let Some(n) = env("SUB") {
-                config.substeps = n as u32;
-            }
-            if let Some(n) = env("ITER") {
-                config.iterations = n as u32;
-            }
-            if let Some(n) = env("RELAX") {
-                config.relax_iterations = n as u32;
-            }
-            if let Some(n) = env("BLOCK") {
-                config.max_block_iterations = n as u32;
-            }
-            if let Some(h) = env("HERTZ") {
-                config.contact_hertz = h;
-            }
-            if let Some(v) = env("PUSH") {
-                config.max_push_out_speed = v;
-            }
-            if env("WARM") == Some(0.0) {
-                config.warm_start = false;
-            }
+            config_env::override_from_env(&mut config);
             app.insert_resource(config);
             let cubes = scenes::column(app.world_mut(), n, friction, ratio);
             app.update();

@@ -3,7 +3,8 @@
 //! displacement (its sink included). Method index 0 (default) the hybrid, 1 the soft step, 2
 //! sequential impulses; 600 steps unless given. For trying settings without a rebuild, the
 //! environment overrides the method's `SolverConfig`: `HZ` (contact hertz), `SUB` (substeps),
-//! `ITER` (iterations), `RELAX` (relax iterations), `BLOCK` (block iterations).
+//! `ITER` (iterations), `RELAX` (relax iterations), `BLOCK` (block iterations), `PUSH` (push-out
+//! speed), `WARM=0` (no warm start).
 //!
 //! ```sh
 //! cargo run --release --example wall_cost [method index] [steps]
@@ -11,6 +12,9 @@
 //! ```
 
 use std::time::Instant;
+
+#[path = "support/config_env.rs"]
+mod config_env;
 
 use bevy::prelude::*;
 use impact3d::prelude::*;
@@ -26,22 +30,7 @@ fn main() {
     let steps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(600);
     let mut app = scenes::headless_app(60.0);
     let mut config = SolverConfig::for_method(method);
-    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f32>().ok());
-    if let Some(h) = env("HZ") {
-        config.contact_hertz = h;
-    }
-    if let Some(n) = env("SUB") {
-        config.substeps = n as u32;
-    }
-    if let Some(n) = env("ITER") {
-        config.iterations = n as u32;
-    }
-    if let Some(n) = env("RELAX") {
-        config.relax_iterations = n as u32;
-    }
-    if let Some(n) = env("BLOCK") {
-        config.max_block_iterations = n as u32;
-    }
+    config_env::override_from_env(&mut config);
     app.insert_resource(config);
     app.insert_resource(SleepConfig {
         enabled: false,
