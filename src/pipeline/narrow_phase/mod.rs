@@ -421,7 +421,8 @@ fn detected_parts(
 /// in parallel; `None` when it runs on this thread: without feature `parallel`, on a pool of
 /// one thread (as Bevy's `Query::par_iter` does; its one worker and the waiting main thread
 /// splitting the pairs bought nothing measurable: a 1,000-sphere pour took 4.2-5.4 ms a step
-/// that way, 4.6-5.6 ms on one thread), or with pairs for one task only.
+/// that way, 4.6-5.6 ms on one thread), or with pairs for one task only. (The pool's scope
+/// also allocates for its tasks every step, which a one-thread build has no use for.)
 fn parallel_pairs(pairs: usize) -> Option<(&'static ComputeTaskPool, usize)> {
     if !cfg!(feature = "parallel") {
         return None;
