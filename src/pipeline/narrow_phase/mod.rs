@@ -75,9 +75,15 @@ pub fn update_narrow_phase(
     let unit = binary_unit(state.settings.length_unit);
     let mut unit_shapes = std::mem::take(&mut state.unit_shapes);
     let scaled = unit_scaled_shapes(state, &candidates, &mut unit_shapes, unit);
-    if let Some(split) = parallel_pairs(pairs.pairs_mut().len()) {
-        let pairs = &mut *pairs;
-        all_pair_geometry(state, &candidates, (&scaled, unit), pairs, split, geometry);
+    if let Some(split) = parallel_pairs(pairs.candidates().len()) {
+        all_pair_geometry(
+            state,
+            &candidates,
+            (&scaled, unit),
+            &mut pairs,
+            split,
+            geometry,
+        );
         for (pair_index, ((pair, &(ia, ib)), geometry)) in pairs
             .pairs_mut()
             .iter_mut()
