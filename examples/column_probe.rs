@@ -10,7 +10,7 @@
 //! Environment: `METHOD=soft` (the soft step instead of the default), `N` (cubes), `RATIO` (light
 //! over heavy mass), `ONLY=60,1` (one rate and friction, with each step's rise on stderr),
 //! `TRACE=1` (every 10th step, each cube's horizontal offset / tilt, rad), and overrides of
-//! `SolverConfig`: `HZ` (contact hertz), `SUB`, `ITER`, `RELAX`, `BLOCK`, `PUSH`, `WARM=0`.
+//! `SolverConfig`: `HZ` (contact hertz), `SUB`, `ITER`, `RELAX`, `BLOCK`, `PUSH`, `TOL`, `WARM=0`.
 #[path = "support/config_env.rs"]
 mod config_env;
 

@@ -4,7 +4,7 @@
 //! sequential impulses; 600 steps unless given. For trying settings without a rebuild, the
 //! environment overrides the method's `SolverConfig`: `HZ` (contact hertz), `SUB` (substeps),
 //! `ITER` (iterations), `RELAX` (relax iterations), `BLOCK` (block iterations), `PUSH` (push-out
-//! speed), `WARM=0` (no warm start).
+//! speed), `TOL` (velocity tolerance), `WARM=0` (no warm start).
 //!
 //! ```sh
 //! cargo run --release --example wall_cost [method index] [steps]

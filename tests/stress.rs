@@ -11,7 +11,10 @@
 //! Each (scene, method) is one test function (`scene::method`), so each can fail and be
 //! ignored on its own. The default `cargo test` runs a short version of each scene
 //! ([`Case::short`] steps at 60 Hz); `long_*` (ignored) run every scene for its full duration:
-//! `cargo test --release --test stress -- --ignored`.
+//! `cargo test --release --test stress -- --ignored`. `STRESS_CASES` in the environment (a
+//! comma-separated list of substrings of case names) runs only the cases it names, so a slow
+//! method's long run can be split: `STRESS_CASES=boxes,mixed cargo test --release --test stress
+//! long_propagation -- --ignored`.
 //!
 //! Then the stability targets of the default method (`Hybrid`): the base-20 wall and the
 //! 20-cube column with friction hold awake, the frictionless 1000:1 pair holds, light against
@@ -452,9 +455,18 @@ stress!(light_against_heavy, [], [], [], [], []);
 stress!(three_ball_hit, [], [], [], [], []);
 
 /// Every case at its full length under `method`; fails listing every failing case.
+/// Whether the `STRESS_CASES` filter (see the module's doc) lets case `name` run: every case
+/// when it is unset or empty.
+fn selected(name: &str) -> bool {
+    let filter = std::env::var("STRESS_CASES").unwrap_or_default();
+    let parts: Vec<&str> = filter.split(',').filter(|p| !p.is_empty()).collect();
+    parts.is_empty() || parts.iter().any(|p| name.contains(p))
+}
+
 fn long(method: SolverMethod) {
     let failures: Vec<String> = CASES
         .iter()
+        .filter(|case| selected(case.name))
         .filter_map(|case| {
             let outcome = run(case, method, case.long);
             println!(
