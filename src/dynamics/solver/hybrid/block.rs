@@ -30,6 +30,10 @@ pub struct ManifoldSolve {
 /// must be, for its points to be solved as soft rows (see [`manifold_sweep`]).
 pub const TILT_MARGIN: f32 = 4.0;
 
+/// How much tighter than [`ManifoldSolve::tolerance`] the rows of a manifold with friction and
+/// a rigid tilt are solved (see [`manifold_sweep`]).
+pub const RIGID_FRICTION_TOLERANCE: f32 = 1e-3;
+
 /// One row of a manifold block: `(bias, soft)`, or `None` when the row takes no part.
 pub type BlockRow = Option<(f32, bool)>;
 
@@ -78,6 +82,10 @@ pub struct Block {
     /// Some point of it can push and is within the touch distance at the start of the step:
     /// only touching manifolds make levels, support, share loads (see `shock_order`).
     pub touching: bool,
+    /// Its supported body carries a released block (see `release_frictional_groups`): the load
+    /// above that body comes through two-body soft rows, not a held chain (see
+    /// [`manifold_sweep`] on which manifolds with friction keep a rigid tilt).
+    pub carries_released: bool,
 }
 
 impl Block {

@@ -55,6 +55,7 @@ pub(super) fn shock_order(
         sort,
         supports,
         released,
+        carrying,
         holds,
         loads,
     } = scratch;
@@ -116,11 +117,13 @@ pub(super) fn shock_order(
         lever: 0.0,
         spread: 0.0,
         touching: touching[k as usize],
+        carries_released: false,
     }));
     // Which blocks are released is known before the holds: `support_holds` then skips the
     // holds that no held block depends on.
     frictional_groups(bodies.len(), contacts, blocks, supports, released);
     support_holds(bodies, contacts, blocks, touch, released, holds);
+    mark_carrying_released(bodies.len(), contacts, blocks, released, carrying);
     release_frictional_groups(blocks, released);
     carried_loads(bodies, contacts, blocks, loads);
 }
@@ -143,6 +146,8 @@ pub(super) struct OrderScratch {
     supports: Vec<(u32, bool)>,
     /// Each block is released ([`release_frictional_groups`]).
     released: Vec<bool>,
+    /// Each body carries a released block ([`mark_carrying_released`]).
+    carrying: Vec<bool>,
     /// [`support_holds`]' buffers.
     holds: HoldScratch,
     /// [`carried_loads`]' buffers.
@@ -293,6 +298,27 @@ pub(super) fn release_frictional_groups(blocks: &mut [Block], released: &[bool])
         block.support = Support::Neither;
         block.hold = 0.0;
         block.push = Vec3::ZERO;
+    }
+}
+
+/// Sets [`Block::carries_released`] on each of `blocks` (before they are released): whether its
+/// supported body is the support of a block that `released` marks (`carrying` a buffer, one
+/// entry a body; its earlier contents dropped).
+pub(super) fn mark_carrying_released(
+    bodies: usize,
+    contacts: &[ContactConstraint],
+    blocks: &mut [Block],
+    released: &[bool],
+    carrying: &mut Vec<bool>,
+) {
+    refill(carrying, bodies, false);
+    for (block, _) in blocks.iter().zip(released).filter(|(_, r)| **r) {
+        if let Some((_, support)) = block.pair(contacts) {
+            carrying[support] = true;
+        }
+    }
+    for block in blocks.iter_mut() {
+        block.carries_released = block.upper(contacts).is_some_and(|upper| carrying[upper]);
     }
 }
 

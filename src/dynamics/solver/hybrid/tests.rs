@@ -260,6 +260,7 @@ fn soft_tilt_stands_by_size_against_lever() {
             lever,
             spread,
             touching: true,
+            carries_released: false,
         }
     };
     // 30 Hz over 9.81 m/s^2: omega^2 / g = 3621.9 1/m.
@@ -336,6 +337,7 @@ fn sweep_one_block(
         lever: 0.0,
         spread: 0.0,
         touching: true,
+        carries_released: false,
     }];
     manifold_sweep(
         bodies,
