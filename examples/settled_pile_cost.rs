@@ -9,8 +9,9 @@
 //!
 //! Pass a count (`settled_pile_cost 1000`) for a smaller pile, and `--timed-only N` to run
 //! only the N-th method (0 the default, 1 the soft step) for 1,000 timed steps, for a profiler.
-//! `RELAX=n` in the environment sets both methods' relax iterations (4: 2,000 spheres 9.7 ->
-//! 13.4 ms a step under the default, 2026-12-06).
+//! `BODIES=boxes` (or `mixed`) in the environment pours cubes (or the mixed shapes) instead of
+//! spheres. `RELAX=n` sets both methods' relax iterations (4: 2,000 spheres 9.7 -> 13.4 ms a
+//! step under the default, 2026-12-06).
 
 use std::time::Instant;
 
@@ -32,10 +33,19 @@ fn settled_pile(method: SolverMethod, count: usize) -> App {
     });
     scenes::pour_into(
         app.world_mut(),
-        &Pour::walled_box(count, PourBodies::Spheres, 1.0, 0.5),
+        &Pour::walled_box(count, pour_bodies(), 1.0, 0.5),
     );
     scenes::run_steps(&mut app, 600);
     app
+}
+
+/// The pile's bodies: spheres, or `BODIES=boxes` / `BODIES=mixed` in the environment.
+fn pour_bodies() -> PourBodies {
+    match std::env::var("BODIES").as_deref() {
+        Ok("boxes") => PourBodies::Boxes,
+        Ok("mixed") => PourBodies::Mixed,
+        _ => PourBodies::Spheres,
+    }
 }
 
 /// Each step's time, ms, over `steps` steps.
@@ -73,7 +83,10 @@ fn main() {
             t.extend(step_times(app, 100));
         }
     }
-    println!("settled pile of {count} spheres, friction 0.5, 60 Hz, sleeping off:");
+    println!(
+        "settled pile of {count} {:?}, friction 0.5, 60 Hz, sleeping off:",
+        pour_bodies()
+    );
     let median = |t: &mut Vec<f64>| {
         t.sort_by(f64::total_cmp);
         (t[t.len() / 2], t[0])

@@ -73,12 +73,11 @@ use super::*;
 /// (27 cm in 20 s). Point by point, each link's tilt is soft, and along a column the soft
 /// tilts add up: 30 cubes drifted 36 mm in 20 s, 20 cubes at 30 Hz 29 mm, and 30 cubes with
 /// friction 1 at 30 Hz fell. With the rigid tilt solved to 1e-7 m/s these stand within 0.1 mm;
-/// 1e-5 m/s was not enough (30 cubes at 30 Hz drifted 0.18 m in 10 s). The rigid tilt is kept
-/// to chains: under a body that carries released
-/// blocks (the bottom row of a wall, each cube under two cubes resting on two supports) it
-/// made the base-20 wall sway 3 mm out of its plane, still moving after 30 s (point by
-/// point: 0.1 mm) and cost 45 % more. Measured costs: about 3 iterations a block and sweep in
-/// a column, 24 under a wall's released blocks. Left failing, where masses alternate: 20 cubes
+/// 1e-5 m/s was not enough (30 cubes at 30 Hz drifted 0.18 m in 10 s). It costs about 3
+/// iterations a block and sweep in a column. The rigid tilt is kept to chains: under a body
+/// that carries released blocks (the bottom row of a wall, each cube under two cubes resting
+/// on two supports) it took 24 iterations a block and made the base-20 wall sway 3 mm out of
+/// its plane, still moving after 30 s (point by point: 0.1 mm), at 45 % more cost. Left failing, where masses alternate: 20 cubes
 /// of 1 kg and 10 kg drift 0.27 m in 20 s at 60 Hz (2 mm point by point) and still fall at
 /// 30 Hz (after 14 s, gaining 16 J; point by point within 10 s, gaining 61 J with friction 1),
 /// and 10 of 1 kg and 0.01 kg fall after 13 s at 30 and 60 Hz (within 10 s before, gaining
@@ -266,7 +265,8 @@ pub(super) fn solve_block(
     // With friction, each penetrating point is its own soft row, Box2D's, with the stiffness of
     // its share of the load the block carries (`load / N`), or of its own effective mass where
     // the block carries none: the tilt is soft, and the manifold still sinks by `g / (2 pi f)^2`
-    // under its load. See `manifold_sweep`.
+    // under its load. Not in a held chain (a column), whose tilt stays rigid and is solved
+    // tighter. See `manifold_sweep`.
     let friction = group[0].friction > 0.0;
     let held_chain = block.support != Support::Neither && !block.carries_released;
     let pointwise = friction && !held_chain && soft_tilt_stands(block, solve);
