@@ -454,7 +454,6 @@ stress!(trimesh_boxes_sleeping, [], [], [], [], []);
 stress!(light_against_heavy, [], [], [], [], []);
 stress!(three_ball_hit, [], [], [], [], []);
 
-/// Every case at its full length under `method`; fails listing every failing case.
 /// Whether the `STRESS_CASES` filter (see the module's doc) lets case `name` run: every case
 /// when it is unset or empty.
 fn selected(name: &str) -> bool {
@@ -463,6 +462,8 @@ fn selected(name: &str) -> bool {
     parts.is_empty() || parts.iter().any(|p| name.contains(p))
 }
 
+/// Every case at its full length under `method` (those `STRESS_CASES` selects); fails listing
+/// every failing case.
 fn long(method: SolverMethod) {
     let failures: Vec<String> = CASES
         .iter()
@@ -627,8 +628,8 @@ fn column20_friction_holds_awake() {
 }
 
 /// Issue 8, the column's family: counts, frictions, step rates and mass ratios, awake for
-/// 20 s, each within the issue's 1 mm. Measured (mm, release): 10 cubes, friction 0.2: under 0.001;
-/// 20, friction 1.0: 0.001; 20 at 120 Hz: 0.001; 30 cubes: 0.002; 20 at 30 Hz: 0.074; 20
+/// 20 s, each within the issue's 1 mm. Measured (mm, release): 10 cubes, friction 0.2: under
+/// 0.001; 20, friction 1.0: 0.001; 20 at 120 Hz: 0.001; 30 cubes: 0.002; 20 at 30 Hz: 0.074; 20
 /// alternating 1 kg and 0.1 kg: 0.001. Before a manifold with friction on a held support kept a
 /// rigid tilt solved to 1e-7 m/s (see `manifold_sweep` in the solver), it was solved point by
 /// point with soft rows, and these drifted 0.12, 0.25, 0.09, 36, 29 and 1.2 mm (the 30-cube
@@ -655,8 +656,8 @@ fn column_friction_family_holds_awake() {
 /// Issue 8, the members of the column's family that still fail (each 1 mm criterion, 20 s
 /// awake, friction 0.5; measured 2026-12-06, release): 20 cubes alternating 1 kg and 10 kg
 /// drift 0.27 m at 60 Hz (2.1 mm while such manifolds were solved point by point; at 30 Hz
-/// that column collapsed then, gaining 61 J with friction 1, and now sways 0.14 m in 10 s
-/// without gaining); 20 cubes alternating 1 kg and 100 kg collapse (3.6 m, as before); 50
+/// that column fell within 10 s then, gaining 61 J with friction 1, and falls after 14 s now,
+/// gaining 16 J); 20 cubes alternating 1 kg and 100 kg collapse (3.6 m, as before); 50
 /// cubes drift 75 mm at 60 Hz (4.0 m before) and 0.61 m at 120 Hz (46 mm before). The held
 /// support answers its block a substep late (through the warm start), and a heavy cube's
 /// rigid tilt hands a light support below it torques ten times its own.
@@ -815,8 +816,9 @@ fn mechanical(app: &App, bodies: &[Entity]) -> f64 {
 /// 120 Hz; friction 1.0: 12.5 (420), 31.5 (776), none. The column now stands 13 s at 30 Hz
 /// and 14 s at 60 Hz and falls then (the top cube below 9 m at steps 401 and 854). Before
 /// (10 s, each link's tilt soft): friction 0.2: 27 (46) at 30 Hz, 17 (149) at 60 Hz, 14 (985)
-/// at 120 Hz; friction 1.0: 91 (59), 45 (195), 21 (712). The column collapsed: its light cubes tilt 0.1-0.3 rad between their 1 kg neighbours and are squeezed
-/// out sideways (7-14 m/s at 30 Hz, friction 0.2), and the energy comes in those steps. The
+/// at 120 Hz; friction 1.0: 91 (59), 45 (195), 21 (712). The column collapsed: its light
+/// cubes tilt 0.1-0.3 rad between their 1 kg neighbours and are squeezed out sideways
+/// (7-14 m/s at 30 Hz, friction 0.2), and the energy comes in those steps. The
 /// soft contacts' push-out is its source: with `max_push_out_speed = 0` no run gains, under the
 /// default or `SoftStep` (which gains 4.5 J at 30 Hz with friction 1.0, and nothing once its
 /// relax pass converges, 32 iterations). The default's relax pass holds the light supports and
