@@ -73,7 +73,7 @@ use super::*;
 /// (27 cm in 20 s). Point by point, each link's tilt is soft, and along a column the soft
 /// tilts add up: 30 cubes drifted 36 mm in 20 s, 20 cubes at 30 Hz 29 mm, and 30 cubes with
 /// friction 1 at 30 Hz fell. With the rigid tilt solved to 1e-7 m/s these stand within 0.1 mm;
-/// 1e-5 m/s was not enough (30 cubes at 30 Hz drifted 0.18 m in 10 s). It costs about 3
+/// 1e-5 m/s was not enough (30 cubes at 30 Hz drifted 0.16-0.24 m in 10 s). It costs about 3
 /// iterations a block and sweep in a column. The rigid tilt is kept to chains: under a body
 /// that carries released blocks (the bottom row of a wall, each cube under two cubes resting
 /// on two supports) it took 24 iterations a block and made the base-20 wall sway 3 mm out of
