@@ -77,12 +77,14 @@ use super::*;
 /// iterations a block and sweep in a column. The rigid tilt is kept to chains: under a body
 /// that carries released blocks (the bottom row of a wall, each cube under two cubes resting
 /// on two supports) it took 24 iterations a block and made the base-20 wall sway 3 mm out of
-/// its plane, still moving after 30 s (point by point: 0.1 mm), at 45 % more cost. Left failing, where masses alternate: 20 cubes
-/// of 1 kg and 10 kg drift 0.27 m in 20 s at 60 Hz (2 mm point by point) and still fall at
-/// 30 Hz (after 14 s, gaining 16 J; point by point within 10 s, gaining 61 J with friction 1),
-/// and 10 of 1 kg and 0.01 kg fall after 13 s at 30 and 60 Hz (within 10 s before, gaining
-/// 2-32 J now against 17-91 J): the held support answers a substep late, and a heavy cube's
-/// rigid tilt hands a light support torques many times its own.
+/// its plane, still moving after 30 s (point by point: 0.1 mm), at 45 % more cost.
+///
+/// Left failing, where masses alternate: 20 cubes of 1 kg and 10 kg drift 0.27 m in 20 s at
+/// 60 Hz (2 mm point by point) and still fall at 30 Hz (after 14 s, gaining 16 J; point by
+/// point within 10 s, gaining 61 J with friction 1), and 10 of 1 kg and 0.01 kg fall after
+/// 13 s at 30 and 60 Hz (within 10 s before, gaining 2-32 J now against 17-91 J): the held
+/// support answers a substep late, and a heavy cube's rigid tilt hands a light support
+/// torques many times its own.
 ///
 /// A soft tilt must also hold its load up: tilted by `theta`, a manifold's rows push back with
 /// a moment `W omega^2 <r^2> theta / g` (their load-scaled springs at their distances `r` from
