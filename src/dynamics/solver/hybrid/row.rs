@@ -49,13 +49,10 @@ pub(super) fn solve_row(
                 let own = if share > 0.0 { share } else { k } * softness;
                 (vn + bias + own * c.normal_impulse, k + own)
             } else {
-                // The soft plane: `c = min(K, 1 / load) / a2`, `K` from the sums.
-                let [rn_a, ang_a] = [Vec3::ZERO + c.rn_a, Vec3::ZERO + c.ang_a];
-                let [rn_b, ang_b] = [Vec3::ZERO + c.rn_b, Vec3::ZERO + c.ang_b];
-                let mut plane = row_inverse_mass(
-                    [linear_a, linear_b],
-                    [fa * rn_a.dot(ang_a), fb * rn_b.dot(ang_b)],
-                );
+                // The soft plane: `c = min(K, 1 / load) / a2`. `K` summed over the one point
+                // is the row's own `k` (the sums `0 + r x n`, `0 + I^-1 (r x n)` differ from the
+                // row's terms only in the sign of a zero, which cannot change a positive `k`).
+                let mut plane = k;
                 if block.load > 0.0 {
                     plane = plane.min(1.0 / block.load);
                 }
