@@ -6,7 +6,7 @@ use impact3d::prelude::SolverConfig;
 /// Overrides fields of `config` from the environment, for trying settings without a rebuild:
 /// `HZ` (contact hertz), `SUB` (substeps), `ITER` (iterations), `RELAX` (relax iterations),
 /// `BLOCK` (block iterations), `PUSH` (largest push-out speed, m/s), `TOL` (velocity tolerance,
-/// m/s), `WARM=0` (no warm start).
+/// m/s), `SLOP` (linear slop, m), `WARM=0` (no warm start).
 pub fn override_from_env(config: &mut SolverConfig) {
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f32>().ok());
     if let Some(h) = env("HZ") {
@@ -29,6 +29,9 @@ pub fn override_from_env(config: &mut SolverConfig) {
     }
     if let Some(v) = env("TOL") {
         config.velocity_tolerance = v;
+    }
+    if let Some(v) = env("SLOP") {
+        config.linear_slop = v;
     }
     if env("WARM") == Some(0.0) {
         config.warm_start = false;
