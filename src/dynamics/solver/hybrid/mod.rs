@@ -17,6 +17,7 @@ use super::{SolverConfig, SolverStats, propagation_params};
 use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
 mod block;
+mod delassus;
 mod loads;
 mod order;
 mod row;
@@ -26,6 +27,7 @@ mod sweep;
 mod tests;
 
 pub use block::*;
+use delassus::*;
 use loads::*;
 use order::*;
 use row::*;

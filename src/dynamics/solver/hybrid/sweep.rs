@@ -73,16 +73,22 @@ use super::*;
 /// (27 cm in 20 s). Point by point, each link's tilt is soft, and along a column the soft
 /// tilts add up: 30 cubes drifted 36 mm in 20 s, 20 cubes at 30 Hz 29 mm, and 30 cubes with
 /// friction 1 at 30 Hz fell. With the rigid tilt solved to 1e-7 m/s these stand within 0.1 mm;
-/// 1e-5 m/s was not enough (30 cubes at 30 Hz drifted 0.16-0.24 m in 10 s). It costs about 3
-/// iterations a block and sweep in a column. The rigid tilt is kept to chains: under a body
+/// 1e-5 m/s was not enough (30 cubes at 30 Hz drifted 0.16-0.24 m in 10 s). It costs 3-5
+/// iterations a block and sweep, run in the space of the block's normal velocities
+/// ([`Delassus`]: the bodies read once and changed once a block solve; a settled pile of 1,000
+/// cubes 7.0-7.8 -> 6.3-6.8 ms a step). The rigid tilt is kept to chains: under a body
 /// that carries released blocks (the bottom row of a wall, each cube under two cubes resting
 /// on two supports) it took 24 iterations a block and made the base-20 wall sway 3 mm out of
 /// its plane, still moving after 30 s (point by point: 0.1 mm), at 45 % more cost.
 ///
-/// Left failing, where masses alternate: 20 cubes of 1 kg and 10 kg drift 0.27 m in 20 s at
-/// 60 Hz (2 mm point by point) and still fall at 30 Hz (after 14 s, gaining 16 J; point by
-/// point within 10 s, gaining 61 J with friction 1), and 10 of 1 kg and 0.01 kg fall after
-/// 13 s at 30 and 60 Hz (within 10 s before, gaining 2-32 J now against 17-91 J): the held
+/// Left failing, where masses alternate, and on the edge in tall columns at low rates (20 s,
+/// measured 2026-12-07): 20 cubes of 1 kg and 10 kg drift 0.20 m at 60 Hz (2 mm point by
+/// point) and fall at 30 Hz; 10 of 1 kg and 0.01 kg fall after 5 s at 30 Hz and 14 s at
+/// 60 Hz, gaining 4-42 J (17-91 J within 10 s point by point); 50 cubes drift 2.4 m at 60 Hz
+/// and 0.29 m at 120 Hz. These runs turn on rounding: the same iterations with a division in
+/// place of [`Delassus`]' reciprocal took 50 cubes to 0.40 m and a 20-cube column at 30 Hz to
+/// 0.17 m, and of 42 uniform columns (18-30 cubes, friction 0.4-0.7, 30 and 60 Hz) one drifts
+/// past 1 mm either way (30 cubes at 30 Hz: 45 mm, 58 mm solved on the bodies). The held
 /// support answers a substep late, and a heavy cube's rigid tilt hands a light support
 /// torques many times its own.
 ///
@@ -308,12 +314,25 @@ pub(super) fn solve_block(
         _ => 0.0,
     };
 
-    let mut first = 0.0f32;
-    let mut changed = false;
     // Every row of the block touches the same two bodies, so a row stays satisfied (see
     // [`Settling`]) unless a later row changes something: the pass has converged when no row
     // after the first taking part changed.
     let first_row = rows.iter().position(Option::is_some);
+    // A rigid tilt with friction iterates long: in the space of the rows' velocities.
+    if friction && !pointwise && group.len() <= DELASSUS_ROWS {
+        let mut delassus = Delassus::new(bodies, group, &response);
+        let (converged, first, changed) = delassus.iterate(
+            group,
+            rows,
+            diagonal,
+            (coupling, total),
+            (tolerance, first_row, solve.max_block_iterations.max(1)),
+        );
+        delassus.apply(bodies, group, &response);
+        return (converged, first, changed);
+    }
+    let mut first = 0.0f32;
+    let mut changed = false;
     for iteration in 0..solve.max_block_iterations.max(1) {
         let mut last_changed = None;
         let mut largest = 0.0f32;

@@ -483,3 +483,91 @@ fn counting_sort_matches_the_key_sort() {
     let expected: Vec<u32> = expected.iter().map(|&(_, _, k)| k as u32).collect();
     assert_eq!(order, expected);
 }
+
+/// A manifold with friction in a held chain is iterated through its Delassus matrix (see
+/// `Delassus`), and the bodies are changed once, at the end: checked against what the block's
+/// equations say, on the bodies' velocities after the solve. A spinning 1 kg box sinking onto
+/// a 2 kg support held by half (`hold` 0.5, its push `(0.1, 0.5, 0)`: along the normal
+/// `1 - hold`, and sideways), four corners 1 cm deep, friction 0.5, carrying its own 1 kg:
+/// - the tilt is rigid: the corners' normal velocities agree;
+/// - the soft plane's law `v' + b + c sum(lambda) = 0` holds, with `c = min(K, 1/load) / a2`:
+///   the centroid lies under both centres of mass, so `K = (1 - hold)/m_A + 1/m_B` = 1.25,
+///   and the load's `1/load` = 1 is the smaller;
+/// - the box gained `sum(lambda) n / m_B` and the support lost `sum(lambda) push / m_A`,
+///   nothing more (the bodies move by the impulses the matrix solved for).
+///
+/// Tolerance 1e-5 m/s: the block is solved to 1e-7 m/s per row change (`RIGID_FRICTION_TOLERANCE`
+/// times 1e-4), and the f32 rounding of velocities near 0.5 m/s is 3e-8 per operation.
+#[test]
+fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
+    let support = SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY).with_mass(
+        0.5,
+        Mat3::from_diagonal(Vec3::splat(3.0)),
+        true,
+        BVec3::FALSE,
+    );
+    let boxed = SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.99, 0.0), Quat::IDENTITY)
+        .with_mass(
+            1.0,
+            Mat3::from_diagonal(Vec3::splat(6.0)),
+            true,
+            BVec3::FALSE,
+        )
+        .with_velocity(Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.3, 0.0, -0.2));
+    let mut bodies = vec![support, boxed];
+    let mut contacts: Vec<_> = [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)]
+        .map(|(x, z)| ContactConstraint::new(0, 1, Vec3::new(x, 0.49, z), Vec3::Y, -0.01, 0.0, 0.5))
+        .into_iter()
+        .collect();
+    prepare_contacts(&bodies, &mut contacts);
+    let before = bodies.clone();
+    let soft = Softness::new(30.0, 10.0, 1.0 / 240.0);
+    let solve = ManifoldSolve {
+        soft: Some(soft),
+        inv_h: 240.0,
+        max_push_out: 3.0,
+        leave_impacts: None,
+        max_block_iterations: 64,
+        tolerance: 1e-4,
+        tilt_stiffness: f32::INFINITY,
+    };
+    let push = Vec3::new(0.1, 0.5, 0.0);
+    let block = Block {
+        range: 0..4,
+        support: Support::A,
+        hold: 0.5,
+        push,
+        load: 1.0,
+        lever: 0.5,
+        spread: 0.125,
+        touching: true,
+        carries_released: false,
+    };
+    let (converged, _, changed) =
+        solve_block(&mut bodies, &mut contacts, &block, &solve, &mut Vec::new());
+    assert!(changed);
+    assert!(converged, "the block converges within its 64 passes");
+    let v: Vec<f32> = contacts
+        .iter()
+        .map(|c| c.normal_velocity(&bodies))
+        .collect();
+    for vi in &v {
+        assert!((vi - v[0]).abs() <= 1e-5, "tilted: {v:?}");
+    }
+    let total: f32 = contacts.iter().map(|c| c.normal_impulse).sum();
+    assert!(contacts.iter().all(|c| c.normal_impulse > 0.0));
+    let a2 = soft.mass_scale / soft.impulse_scale;
+    let bias = (soft.bias_rate * -0.01).max(-3.0);
+    let law = v[0] + bias + 1.0 * total / a2;
+    assert!(law.abs() <= 1e-5, "soft plane law: {law}");
+    let gained = bodies[1].linear_velocity - before[1].linear_velocity;
+    assert!(
+        (gained - total * Vec3::Y).length() <= 1e-5,
+        "{gained} vs {total}"
+    );
+    let lost = before[0].linear_velocity - bodies[0].linear_velocity;
+    assert!(
+        (lost - 0.5 * total * push).length() <= 1e-5,
+        "{lost} vs {total}"
+    );
+}
