@@ -311,6 +311,20 @@ fn box_on_ground(corners: &[Vec3]) -> (Vec<SolverBody>, Vec<ContactConstraint>) 
     (bodies, contacts)
 }
 
+/// The soft pass's settings at `h = 1/240` s with Box2D's 3 m/s push-out cap, a block iterated
+/// to `tolerance` (m/s) within 64 passes, every soft tilt standing.
+fn soft_solve(soft: Softness, tolerance: f32) -> ManifoldSolve {
+    ManifoldSolve {
+        soft: Some(soft),
+        inv_h: 240.0,
+        max_push_out: 3.0,
+        leave_impacts: None,
+        max_block_iterations: 64,
+        tolerance,
+        tilt_stiffness: f32::INFINITY,
+    }
+}
+
 /// One `manifold_sweep` over `contacts` as a single two-body block (no support, no load) at
 /// `h = 1/240` s with Box2D's 3 m/s push-out cap, iterated to `tolerance`.
 fn sweep_one_block(
@@ -319,15 +333,7 @@ fn sweep_one_block(
     soft: Softness,
     tolerance: f32,
 ) -> Sweep {
-    let solve = ManifoldSolve {
-        soft: Some(soft),
-        inv_h: 240.0,
-        max_push_out: 3.0,
-        leave_impacts: None,
-        max_block_iterations: 64,
-        tolerance,
-        tilt_stiffness: f32::INFINITY,
-    };
+    let solve = soft_solve(soft, tolerance);
     let blocks = [Block {
         range: 0..contacts.len(),
         support: Support::Neither,
@@ -374,6 +380,16 @@ fn manifold_block_of_one_point_is_the_soft_row() {
     assert!((a.angular_velocity - b.angular_velocity).length() <= 1e-6);
 }
 
+/// Asserts that a block's rows move along their normal together (a rigid tilt), to
+/// `tolerance` m/s, and returns that normal velocity and the rows' total impulse.
+fn untilted(contacts: &[ContactConstraint], bodies: &[SolverBody], tolerance: f32) -> (f32, f32) {
+    let v: Vec<f32> = contacts.iter().map(|c| c.normal_velocity(bodies)).collect();
+    for vi in &v {
+        assert!((vi - v[0]).abs() <= tolerance, "tilted: {v:?}");
+    }
+    (v[0], contacts.iter().map(|c| c.normal_impulse).sum())
+}
+
 /// A face manifold takes any load distribution without tilting: four corners of a spinning
 /// box, penetrating equally, end with no relative velocity between the corners (the tilt
 /// modes are rigid; 1e-4 m/s is the block tolerance), while the mean obeys the soft law
@@ -385,18 +401,11 @@ fn manifold_block_is_rigid_in_tilt() {
         [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)].map(|(x, z)| Vec3::new(x, -0.01, z));
     let (mut bodies, mut contacts) = box_on_ground(&corners);
     sweep_one_block(&mut bodies, &mut contacts, soft, 1e-7);
-    let v: Vec<f32> = contacts
-        .iter()
-        .map(|c| c.normal_velocity(&bodies))
-        .collect();
-    for vi in &v {
-        assert!((vi - v[0]).abs() <= 1e-4, "{v:?}");
-    }
+    let (v, total) = untilted(&contacts, &bodies, 1e-4);
     // Mean law: v' + b + (K/a2) sum(lambda) = 0 with K = 1/m for the centroid under the
     // centre of mass; b = bias_rate s.
-    let total: f32 = contacts.iter().map(|c| c.normal_impulse).sum();
     let a2 = soft.mass_scale / soft.impulse_scale;
-    let residual = v[0] + soft.bias_rate * -0.01 + total / a2;
+    let residual = v + soft.bias_rate * -0.01 + total / a2;
     assert!(residual.abs() <= 1e-4, "{residual}");
 }
 
@@ -522,15 +531,7 @@ fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
     prepare_contacts(&bodies, &mut contacts);
     let before = bodies.clone();
     let soft = Softness::new(30.0, 10.0, 1.0 / 240.0);
-    let solve = ManifoldSolve {
-        soft: Some(soft),
-        inv_h: 240.0,
-        max_push_out: 3.0,
-        leave_impacts: None,
-        max_block_iterations: 64,
-        tolerance: 1e-4,
-        tilt_stiffness: f32::INFINITY,
-    };
+    let solve = soft_solve(soft, 1e-4);
     let push = Vec3::new(0.1, 0.5, 0.0);
     let block = Block {
         range: 0..4,
@@ -547,18 +548,11 @@ fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
         solve_block(&mut bodies, &mut contacts, &block, &solve, &mut Vec::new());
     assert!(changed);
     assert!(converged, "the block converges within its 64 passes");
-    let v: Vec<f32> = contacts
-        .iter()
-        .map(|c| c.normal_velocity(&bodies))
-        .collect();
-    for vi in &v {
-        assert!((vi - v[0]).abs() <= 1e-5, "tilted: {v:?}");
-    }
-    let total: f32 = contacts.iter().map(|c| c.normal_impulse).sum();
+    let (v, total) = untilted(&contacts, &bodies, 1e-5);
     assert!(contacts.iter().all(|c| c.normal_impulse > 0.0));
     let a2 = soft.mass_scale / soft.impulse_scale;
     let bias = (soft.bias_rate * -0.01).max(-3.0);
-    let law = v[0] + bias + 1.0 * total / a2;
+    let law = v + bias + 1.0 * total / a2;
     assert!(law.abs() <= 1e-5, "soft plane law: {law}");
     let gained = bodies[1].linear_velocity - before[1].linear_velocity;
     assert!(
