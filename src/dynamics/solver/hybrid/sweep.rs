@@ -88,9 +88,9 @@ use super::*;
 /// and 0.29 m at 120 Hz. These runs turn on rounding: the same iterations with a division in
 /// place of [`Delassus`]' reciprocal took 50 cubes to 0.40 m and a 20-cube column at 30 Hz to
 /// 0.17 m, and of 42 uniform columns (18-30 cubes, friction 0.4-0.7, 30 and 60 Hz) one drifts
-/// past 1 mm either way (30 cubes at 30 Hz: 45 mm, 58 mm solved on the bodies). The held
-/// support answers a substep late, and a heavy cube's rigid tilt hands a light support
-/// torques many times its own.
+/// past 1 mm either way (30 cubes at 30 Hz: friction 0.7 45 mm; friction 0.5 58 mm solved on
+/// the bodies). The held support answers a substep late, and a heavy cube's rigid tilt hands
+/// a light support torques many times its own.
 ///
 /// A soft tilt must also hold its load up: tilted by `theta`, a manifold's rows push back with
 /// a moment `W omega^2 <r^2> theta / g` (their load-scaled springs at their distances `r` from
