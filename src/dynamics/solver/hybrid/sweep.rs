@@ -75,22 +75,23 @@ use super::*;
 /// friction 1 at 30 Hz fell. With the rigid tilt solved to 1e-7 m/s these stand within 0.1 mm;
 /// 1e-5 m/s was not enough (30 cubes at 30 Hz drifted 0.16-0.24 m in 10 s). It costs 3-5
 /// iterations a block and sweep, run in the space of the block's normal velocities
-/// ([`Delassus`]: the bodies read once and changed once a block solve; a settled pile of 1,000
-/// cubes 7.0-7.8 -> 6.3-6.8 ms a step). The rigid tilt is kept to chains: under a body
-/// that carries released blocks (the bottom row of a wall, each cube under two cubes resting
-/// on two supports) it took 24 iterations a block and made the base-20 wall sway 3 mm out of
-/// its plane, still moving after 30 s (point by point: 0.1 mm), at 45 % more cost.
+/// (`Delassus` in `hybrid/delassus.rs`: the bodies read once and changed once a block solve;
+/// a settled pile of 1,000 cubes 7.0-7.8 -> 6.3-7.0 ms a step). The rigid tilt is kept to
+/// chains: under a body that carries released blocks (the bottom row of a wall, each cube
+/// under two cubes resting on two supports) it took 24 iterations a block and made the
+/// base-20 wall sway 3 mm out of its plane, still moving after 30 s (point by point: 0.1 mm),
+/// at 45 % more cost.
 ///
-/// Left failing, where masses alternate, and on the edge in tall columns at low rates (20 s,
-/// measured 2026-12-07): 20 cubes of 1 kg and 10 kg drift 0.20 m at 60 Hz (2 mm point by
-/// point) and fall at 30 Hz; 10 of 1 kg and 0.01 kg fall after 5 s at 30 Hz and 14 s at
-/// 60 Hz, gaining 4-42 J (17-91 J within 10 s point by point); 50 cubes drift 2.4 m at 60 Hz
-/// and 0.29 m at 120 Hz. These runs turn on rounding: the same iterations with a division in
-/// place of [`Delassus`]' reciprocal took 50 cubes to 0.40 m and a 20-cube column at 30 Hz to
-/// 0.17 m, and of 42 uniform columns (18-30 cubes, friction 0.4-0.7, 30 and 60 Hz) one drifts
-/// past 1 mm either way (30 cubes at 30 Hz: friction 0.7 45 mm; friction 0.5 58 mm solved on
-/// the bodies). The held support answers a substep late, and a heavy cube's rigid tilt hands
-/// a light support torques many times its own.
+/// Left failing, where masses alternate and in columns of 50 (20 s, measured 2026-12-07): 20
+/// cubes of 1 kg and 10 kg drift 0.24 m at 60 Hz (2 mm point by point) and fall at 30 Hz; 10
+/// of 1 kg and 0.01 kg fall after 4 s at 30 Hz and 14-17 s at 60 Hz, gaining 8-14 J (17-91 J
+/// within 10 s point by point); 50 cubes drift 3.1 m at 60 Hz and 0.53 m at 120 Hz. These runs
+/// turn on rounding: the same iterations without `Delassus`' projection of the biases, or
+/// dividing in place of its reciprocal, moved each of them (50 cubes at 60 Hz: 75 mm on the
+/// bodies, 2.4 m and 0.40 m in velocity space). Uniform columns of 18-30 cubes at 30 and 60 Hz
+/// all stand (42 of 42 within 0.01 mm; one of them fell before the projection). The held
+/// support answers a substep late, and a heavy cube's rigid tilt hands a light support
+/// torques many times its own.
 ///
 /// A soft tilt must also hold its load up: tilted by `theta`, a manifold's rows push back with
 /// a moment `W omega^2 <r^2> theta / g` (their load-scaled springs at their distances `r` from
