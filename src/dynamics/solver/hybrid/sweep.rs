@@ -83,9 +83,9 @@ use super::*;
 /// at 45 % more cost.
 ///
 /// Left failing, where masses alternate and in columns of 50 (20 s, measured 2026-12-07): 20
-/// cubes of 1 kg and 10 kg drift 0.24 m at 60 Hz (2 mm point by point) and fall at 30 Hz; 10
-/// of 1 kg and 0.01 kg fall after 4 s at 30 Hz and 14-17 s at 60 Hz, gaining 8-14 J (17-91 J
-/// within 10 s point by point); 50 cubes drift 3.1 m at 60 Hz and 0.53 m at 120 Hz. These runs
+/// cubes of 1 kg and 10 kg drift 0.40 m at 60 Hz (2 mm point by point) and fall at 30 Hz; 10
+/// of 1 kg and 0.01 kg fall after 4 s at 30 Hz and 16 s at 60 Hz, gaining 12-40 J (17-91 J
+/// within 10 s point by point); 50 cubes drift 5.6 m at 60 Hz and 0.32 m at 120 Hz. These runs
 /// turn on rounding: the same iterations without `Delassus`' projection of the biases, or
 /// dividing in place of its reciprocal, moved each of them (50 cubes at 60 Hz: 75 mm on the
 /// bodies, 2.4 m and 0.40 m in velocity space). Uniform columns of 18-30 cubes at 30 and 60 Hz
@@ -328,6 +328,7 @@ pub(super) fn solve_block(
             diagonal,
             (coupling, total),
             (tolerance, first_row, solve.max_block_iterations.max(1)),
+            solve.max_push_out,
         );
         delassus.apply(bodies, group, &response);
         return (converged, first, changed);
