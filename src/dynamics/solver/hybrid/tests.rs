@@ -493,6 +493,19 @@ fn counting_sort_matches_the_key_sort() {
     assert_eq!(order, expected);
 }
 
+/// A 1 kg cube (the inertia of a 1 m cube) 0.99 m above a support at the origin, 1 cm into
+/// it, moving at `v` and turning at `w`.
+fn box_above(v: Vec3, w: Vec3) -> SolverBody {
+    SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.99, 0.0), Quat::IDENTITY)
+        .with_mass(
+            1.0,
+            Mat3::from_diagonal(Vec3::splat(6.0)),
+            true,
+            BVec3::FALSE,
+        )
+        .with_velocity(v, w)
+}
+
 /// A manifold with friction in a held chain is iterated through its Delassus matrix (see
 /// `Delassus`), and the bodies are changed once, at the end: checked against what the block's
 /// equations say, on the bodies' velocities after the solve. A spinning 1 kg box sinking onto
@@ -515,14 +528,7 @@ fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
         true,
         BVec3::FALSE,
     );
-    let boxed = SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.99, 0.0), Quat::IDENTITY)
-        .with_mass(
-            1.0,
-            Mat3::from_diagonal(Vec3::splat(6.0)),
-            true,
-            BVec3::FALSE,
-        )
-        .with_velocity(Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.3, 0.0, -0.2));
+    let boxed = box_above(Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.3, 0.0, -0.2));
     let mut bodies = vec![support, boxed];
     let mut contacts: Vec<_> = [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)]
         .map(|(x, z)| ContactConstraint::new(0, 1, Vec3::new(x, 0.49, z), Vec3::Y, -0.01, 0.0, 0.5))
@@ -580,14 +586,7 @@ fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
 #[test]
 fn face_manifold_under_rounding_is_solved_once() {
     let support = SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY);
-    let boxed = SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.99, 0.0), Quat::IDENTITY)
-        .with_mass(
-            1.0,
-            Mat3::from_diagonal(Vec3::splat(6.0)),
-            true,
-            BVec3::FALSE,
-        )
-        .with_velocity(Vec3::new(0.0, -0.04, 0.0), Vec3::ZERO);
+    let boxed = box_above(Vec3::new(0.0, -0.04, 0.0), Vec3::ZERO);
     let mut bodies = vec![support, boxed];
     let depth = [-0.01 - 5e-7, -0.01, -0.01, -0.01];
     let mut contacts: Vec<_> = [(0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)]
