@@ -143,6 +143,26 @@ pub struct Side {
     pub angular: f32,
 }
 
+impl Side {
+    /// The direction of its velocity change per unit impulse on a row with normal `normal`,
+    /// before its inverse mass.
+    #[inline]
+    pub fn direction_for(&self, normal: Vec3) -> Vec3 {
+        self.direction.unwrap_or(normal)
+    }
+
+    /// The factor on its angular response to a row whose angular terms are `angular` (see
+    /// [`ContactConstraint::angular`]): [`Side::angular`], or 0 where it does not turn.
+    #[inline]
+    pub fn turn(&self, angular: bool) -> f32 {
+        if angular && self.angular > 0.0 {
+            self.angular
+        } else {
+            0.0
+        }
+    }
+}
+
 /// How the two bodies of a block respond to its impulse (see [`Block::response`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Response {

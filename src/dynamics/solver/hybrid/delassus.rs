@@ -71,20 +71,13 @@ impl Delassus {
             d.vn[j] = cj.normal_velocity(bodies);
             // As `apply_response` moves the bodies for an impulse of 1 on row `j`: B by
             // `+1/m_B dir_B` and `+f_B I_B^-1 (r_B x n)`, A by the opposite.
-            let dir_a = response.a.direction.unwrap_or(cj.normal);
-            let dir_b = response.b.direction.unwrap_or(cj.normal);
-            let linear = ima * dir_a + imb * dir_b;
-            let turns = |f: f32, ang: Vec3| {
-                if cj.angular && f > 0.0 {
-                    f * ang
-                } else {
-                    Vec3::ZERO
-                }
+            let linear = ima * response.a.direction_for(cj.normal)
+                + imb * response.b.direction_for(cj.normal);
+            let turns = |side: &Side, ang: Vec3| match side.turn(cj.angular) {
+                f if f > 0.0 => f * ang,
+                _ => Vec3::ZERO,
             };
-            let (wa, wb) = (
-                turns(response.a.angular, cj.ang_a),
-                turns(response.b.angular, cj.ang_b),
-            );
+            let (wa, wb) = (turns(&response.a, cj.ang_a), turns(&response.b, cj.ang_b));
             for (i, ci) in group.iter().enumerate() {
                 let mut change = linear.dot(ci.normal);
                 if ci.angular {

@@ -186,23 +186,21 @@ pub(super) fn apply_response(
     r: &Response,
 ) {
     let (a, b) = crate::dynamics::solver::body::pair_mut(bodies, c.body_a, c.body_b);
-    let (dir_a, dir_b) = (
-        r.a.direction.unwrap_or(c.normal),
-        r.b.direction.unwrap_or(c.normal),
-    );
+    let (dir_a, dir_b) = (r.a.direction_for(c.normal), r.b.direction_for(c.normal));
+    let (turn_a, turn_b) = (r.a.turn(c.angular), r.b.turn(c.angular));
     apply_row_impulse(
         &mut a.linear_velocity,
         &mut a.angular_velocity,
         a.inverse_mass,
         (dir_a != Vec3::ZERO).then(|| -(impulse * dir_a)),
-        (c.angular && r.a.angular > 0.0).then(|| (-(r.a.angular * impulse), c.ang_a)),
+        (turn_a > 0.0).then(|| (-(turn_a * impulse), c.ang_a)),
     );
     apply_row_impulse(
         &mut b.linear_velocity,
         &mut b.angular_velocity,
         b.inverse_mass,
         (dir_b != Vec3::ZERO).then(|| impulse * dir_b),
-        (c.angular && r.b.angular > 0.0).then_some((r.b.angular * impulse, c.ang_b)),
+        (turn_b > 0.0).then_some((turn_b * impulse, c.ang_b)),
     );
 }
 

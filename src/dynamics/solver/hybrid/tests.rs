@@ -496,14 +496,9 @@ fn counting_sort_matches_the_key_sort() {
 /// A 1 kg cube (the inertia of a 1 m cube) 0.99 m above a support at the origin, 1 cm into
 /// it, moving at `v` and turning at `w`.
 fn box_above(v: Vec3, w: Vec3) -> SolverBody {
-    SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.99, 0.0), Quat::IDENTITY)
-        .with_mass(
-            1.0,
-            Mat3::from_diagonal(Vec3::splat(6.0)),
-            true,
-            BVec3::FALSE,
-        )
-        .with_velocity(v, w)
+    let mut body = cube(Motion::Dynamic, 1.0).with_velocity(v, w);
+    body.position = Vec3::new(0.0, 0.99, 0.0);
+    body
 }
 
 /// A manifold with friction in a held chain is iterated through its Delassus matrix (see
@@ -522,12 +517,7 @@ fn box_above(v: Vec3, w: Vec3) -> SolverBody {
 /// times 1e-4), and the f32 rounding of velocities near 0.5 m/s is 3e-8 per operation.
 #[test]
 fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
-    let support = SolverBody::new(Motion::Dynamic, Vec3::ZERO, Quat::IDENTITY).with_mass(
-        0.5,
-        Mat3::from_diagonal(Vec3::splat(3.0)),
-        true,
-        BVec3::FALSE,
-    );
+    let support = cube(Motion::Dynamic, 2.0);
     let boxed = box_above(Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.3, 0.0, -0.2));
     let mut bodies = vec![support, boxed];
     let mut contacts: Vec<_> = [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)]
