@@ -415,6 +415,57 @@ pub fn integrate_positions_owing(bodies: &mut [SolverBody], gravity: Vec3, h: f3
     }
 }
 
+/// The velocities of one body as a contact row reads and changes them, with its inverse mass:
+/// a copy held in locals while the rows of one body pair are solved (see [`PairVelocities`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowBody {
+    /// m/s.
+    pub linear: Vec3,
+    /// rad/s, world frame.
+    pub angular: Vec3,
+    /// 1/kg.
+    pub inverse_mass: f32,
+}
+
+/// Bodies A and B of a run of rows that all join the same two bodies (a manifold), read once
+/// before the rows are solved and written back once after.
+///
+/// Why: solved against the body slice, each row's update is stored and read back by the next
+/// row (through the row's body indices, which the compiler cannot prove equal), a chain of
+/// loads and stores the rows wait on; in locals the velocities stay in registers. The rows
+/// perform the same operations in the same order either way, so the results are bit-identical.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairVelocities {
+    /// Body A.
+    pub a: RowBody,
+    /// Body B.
+    pub b: RowBody,
+}
+
+impl PairVelocities {
+    /// Bodies `a` and `b`'s velocities and inverse masses.
+    #[inline]
+    pub fn load(bodies: &[SolverBody], a: usize, b: usize) -> Self {
+        let side = |body: &SolverBody| RowBody {
+            linear: body.linear_velocity,
+            angular: body.angular_velocity,
+            inverse_mass: body.inverse_mass,
+        };
+        PairVelocities {
+            a: side(&bodies[a]),
+            b: side(&bodies[b]),
+        }
+    }
+
+    /// Writes the velocities back to bodies `a` and `b`.
+    #[inline]
+    pub fn store(&self, bodies: &mut [SolverBody], a: usize, b: usize) {
+        let (body_a, body_b) = pair_mut(bodies, a, b);
+        (body_a.linear_velocity, body_a.angular_velocity) = (self.a.linear, self.a.angular);
+        (body_b.linear_velocity, body_b.angular_velocity) = (self.b.linear, self.b.angular);
+    }
+}
+
 /// Returns mutable references to two distinct bodies (or per-body entries).
 pub(crate) fn pair_mut<T>(bodies: &mut [T], a: usize, b: usize) -> (&mut T, &mut T) {
     debug_assert_ne!(a, b);

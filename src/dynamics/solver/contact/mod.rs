@@ -4,13 +4,15 @@
 
 use bevy::math::{Quat, Vec3};
 
-use super::body::{Motion, SolverBody, pair_mut};
+use super::body::{Motion, PairVelocities, SolverBody, pair_mut};
 use super::ledger::{NO_LEDGER, RestitutionLedger};
 use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
 mod friction;
 
-pub use friction::solve_friction;
+#[cfg(test)]
+use friction::clamp_to_room;
+pub use friction::{solve_friction, solve_friction_in};
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.
 /// Built by the narrow phase with [`ContactConstraint::new`], completed by [`prepare_contacts`].
@@ -171,6 +173,16 @@ impl ContactConstraint {
         self.normal_velocity_of(
             (a.linear_velocity, a.angular_velocity),
             (b.linear_velocity, b.angular_velocity),
+            self.drive,
+        )
+    }
+
+    /// [`normal_velocity`](Self::normal_velocity) with the bodies' velocities in `v`.
+    #[inline]
+    pub fn normal_velocity_in(&self, v: &PairVelocities) -> f32 {
+        self.normal_velocity_of(
+            (v.a.linear, v.a.angular),
+            (v.b.linear, v.b.angular),
             self.drive,
         )
     }

@@ -333,3 +333,45 @@ fn stick_impulse_takes_energy_out_within_the_disk() {
         }
     }
 }
+
+/// Friction's clamp into the disc (`clamp_to_room`), which skips the square root well inside
+/// it, returns bit for bit what clamping to the square root returns: for rooms over 60 orders
+/// of magnitude and at the edges of the floats (zero, subnormal, the smallest normal), for
+/// impulses within 16 ulps of the bound on either side (its shortcut's threshold lies about 4
+/// ulps inside), at it, and spread over the disc and beyond.
+#[test]
+fn friction_clamp_shortcut_is_the_clamp() {
+    let reference = |impulse: f32, room2: f32| {
+        let room = room2.sqrt();
+        impulse.clamp(-room, room)
+    };
+    let mut unit = uniform(0x5eed_f00d);
+    let mut rooms = vec![
+        0.0,
+        f32::MIN_POSITIVE / 4.0,
+        f32::MIN_POSITIVE,
+        f32::MIN_POSITIVE.next_up(),
+        1.0,
+    ];
+    rooms.extend((0..2000).map(|_| 10f32.powf(unit() * 60.0 - 30.0)));
+    let mut checked = 0;
+    for room2 in rooms {
+        let room = room2.sqrt();
+        let mut impulses = vec![0.0, -0.0, room, -room, f32::NAN];
+        let (mut up, mut down) = (room, room);
+        for _ in 0..16 {
+            (up, down) = (up.next_up(), down.next_down());
+            impulses.extend([up, -up, down, -down]);
+        }
+        impulses.extend((0..16).map(|_| (unit() * 2.0 - 1.0) * 1.5 * room));
+        for impulse in impulses {
+            assert_eq!(
+                clamp_to_room(impulse, room2).to_bits(),
+                reference(impulse, room2).to_bits(),
+                "impulse {impulse:e}, room^2 {room2:e}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 100_000);
+}

@@ -179,11 +179,16 @@ impl Delassus {
         group: &[ContactConstraint],
         response: &Response,
     ) {
+        let Some(c0) = group.first() else {
+            return;
+        };
+        let mut v = PairVelocities::load(bodies, c0.body_a, c0.body_b);
         for (c, &delta) in group.iter().zip(&self.applied) {
             if delta != 0.0 {
-                apply_response(c, bodies, delta, response);
+                apply_response(c, &mut v, delta, response);
             }
         }
+        v.store(bodies, c0.body_a, c0.body_b);
     }
 }
 

@@ -8,8 +8,8 @@ use std::ops::Range;
 
 use bevy::prelude::*;
 
-use super::body::{Motion, SolverBody};
-use super::contact::{ContactConstraint, solve_friction};
+use super::body::{Motion, PairVelocities, SolverBody};
+use super::contact::{ContactConstraint, solve_friction_in};
 use super::iterative::{Settling, Sweep};
 use super::propagation::{PropagationScratch, propagate_with};
 use super::soft_step::{Resting, SoftScratch, Softness, soft_substeps};

@@ -37,7 +37,7 @@ use crate::dynamics::solver::rows::CompressedRows;
 /// body has the same level and every manifold is solved two-body, conserving momentum exactly.
 ///
 /// Without a consistent partition of `contacts` into `manifolds` (a caller of [`step`](crate::dynamics::solver::step) may pass
-/// none), each contact is its own block. The blocks are written into `blocks` (its earlier
+/// none, or ranges that mix body pairs), each contact is its own block. The blocks are written into `blocks` (its earlier
 /// contents dropped, its memory kept); `scratch` holds the other buffers.
 pub(super) fn shock_order(
     blocks: &mut Vec<Block>,
@@ -59,10 +59,17 @@ pub(super) fn shock_order(
         holds,
         loads,
     } = scratch;
+    // A block's solve reads and writes its two bodies once for all its rows (see
+    // `PairVelocities`): each range must join one pair.
+    let pair = |c: &ContactConstraint| (c.body_a, c.body_b);
     let covered = manifolds.iter().map(|r| r.len()).sum::<usize>() == contacts.len()
-        && manifolds
-            .iter()
-            .all(|r| r.end <= contacts.len() && !r.is_empty());
+        && manifolds.iter().all(|r| {
+            r.end <= contacts.len()
+                && !r.is_empty()
+                && contacts[r.clone()]
+                    .iter()
+                    .all(|c| pair(c) == pair(&contacts[r.start]))
+        });
     let ranges: &[Range<usize>] = if covered {
         manifolds
     } else {

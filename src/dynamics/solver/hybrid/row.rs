@@ -34,7 +34,8 @@ pub(super) fn solve_row(
     if k <= 0.0 {
         return (true, 0.0, false);
     }
-    let vn = c.normal_velocity(bodies);
+    let mut v = PairVelocities::load(bodies, c.body_a, c.body_b);
+    let vn = c.normal_velocity_in(&v);
     let (residual, diagonal) = match solve.soft {
         Some(spring) if soft => {
             let total = 0.0 + c.normal_impulse;
@@ -62,6 +63,9 @@ pub(super) fn solve_row(
         }
         _ => (vn + bias, k),
     };
-    let delta = update_row(c, bodies, residual / diagonal, &response);
+    let delta = update_row(c, &mut v, residual / diagonal, &response);
+    if delta != 0.0 {
+        v.store(bodies, c.body_a, c.body_b);
+    }
     (true, 0.0f32.max(delta.abs() * k), delta != 0.0)
 }

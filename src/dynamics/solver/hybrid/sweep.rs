@@ -159,12 +159,7 @@ pub fn manifold_sweep(
             }
         }
         for block in &blocks[start..end] {
-            for c in contacts[block.range.clone()]
-                .iter_mut()
-                .filter(|c| c.friction > 0.0)
-            {
-                settling.friction_changed |= solve_friction(bodies, c);
-            }
+            settling.friction_changed |= block_friction(bodies, &mut contacts[block.range.clone()]);
         }
         start = end;
     }
@@ -176,29 +171,47 @@ pub fn manifold_sweep(
     sweep
 }
 
+/// Friction on a block's rows with friction, each row's
+/// [`solve_friction`](crate::dynamics::solver::contact::solve_friction) in turn, on the
+/// velocities of the block's two bodies (every row of a block joins the same two, see
+/// `shock_order`) read once and written back once (see [`PairVelocities`]). Returns whether
+/// any velocity changed.
+fn block_friction(bodies: &mut [SolverBody], group: &mut [ContactConstraint]) -> bool {
+    let (a, b) = (group[0].body_a, group[0].body_b);
+    let mut v = PairVelocities::load(bodies, a, b);
+    let mut changed = false;
+    for c in group.iter_mut().filter(|c| c.friction > 0.0) {
+        debug_assert_eq!((c.body_a, c.body_b), (a, b));
+        changed |= solve_friction_in(&mut v, c);
+    }
+    if changed {
+        v.store(bodies, a, b);
+    }
+    changed
+}
+
 /// Applies `+impulse` to B and `-impulse` to A along each body's response direction, with its
-/// angular response scaled by its factor.
+/// angular response scaled by its factor, to the bodies' velocities in `v`.
 #[inline]
 pub(super) fn apply_response(
     c: &ContactConstraint,
-    bodies: &mut [SolverBody],
+    v: &mut PairVelocities,
     impulse: f32,
     r: &Response,
 ) {
-    let (a, b) = crate::dynamics::solver::body::pair_mut(bodies, c.body_a, c.body_b);
     let (dir_a, dir_b) = (r.a.direction_for(c.normal), r.b.direction_for(c.normal));
     let (turn_a, turn_b) = (r.a.turn(c.angular), r.b.turn(c.angular));
     apply_row_impulse(
-        &mut a.linear_velocity,
-        &mut a.angular_velocity,
-        a.inverse_mass,
+        &mut v.a.linear,
+        &mut v.a.angular,
+        v.a.inverse_mass,
         (dir_a != Vec3::ZERO).then(|| -(impulse * dir_a)),
         (turn_a > 0.0).then(|| (-(turn_a * impulse), c.ang_a)),
     );
     apply_row_impulse(
-        &mut b.linear_velocity,
-        &mut b.angular_velocity,
-        b.inverse_mass,
+        &mut v.b.linear,
+        &mut v.b.angular,
+        v.b.inverse_mass,
         (dir_b != Vec3::ZERO).then(|| impulse * dir_b),
         (turn_b > 0.0).then_some((turn_b * impulse, c.ang_b)),
     );
@@ -331,47 +344,57 @@ pub(super) fn solve_block(
         delassus.apply(bodies, group, &response);
         return (converged, first, changed);
     }
+    // The rows' bodies (every row of a block joins the same two, see `shock_order`) in locals
+    // for the passes (see `PairVelocities`).
+    let (body_a, body_b) = (group[0].body_a, group[0].body_b);
+    let mut v = PairVelocities::load(bodies, body_a, body_b);
     let mut first = 0.0f32;
     let mut changed = false;
-    for iteration in 0..solve.max_block_iterations.max(1) {
-        let mut last_changed = None;
-        let mut largest = 0.0f32;
-        for (i, (c, row)) in group.iter_mut().zip(rows.iter()).enumerate() {
-            let Some((bias, soft)) = *row else { continue };
-            let k = diagonal(c);
-            if k <= 0.0 {
-                continue;
-            }
-            let vn = c.normal_velocity(bodies);
-            let (residual, diagonal) = if soft && pointwise {
-                let own = if share > 0.0 { share } else { k } * softness;
-                (vn + bias + own * c.normal_impulse, k + own)
-            } else if soft {
-                (vn + bias + coupling * total, k + coupling)
-            } else {
-                (vn + bias, k)
-            };
-            let delta = update_row(c, bodies, residual / diagonal, &response);
-            if delta != 0.0 {
-                if soft {
-                    total += delta;
+    let converged = 'passes: {
+        for iteration in 0..solve.max_block_iterations.max(1) {
+            let mut last_changed = None;
+            let mut largest = 0.0f32;
+            for (i, (c, row)) in group.iter_mut().zip(rows.iter()).enumerate() {
+                let Some((bias, soft)) = *row else { continue };
+                let k = diagonal(c);
+                if k <= 0.0 {
+                    continue;
                 }
-                largest = largest.max(delta.abs() * k);
-                last_changed = Some(i);
-                changed = true;
+                let vn = c.normal_velocity_in(&v);
+                let (residual, diagonal) = if soft && pointwise {
+                    let own = if share > 0.0 { share } else { k } * softness;
+                    (vn + bias + own * c.normal_impulse, k + own)
+                } else if soft {
+                    (vn + bias + coupling * total, k + coupling)
+                } else {
+                    (vn + bias, k)
+                };
+                let delta = update_row(c, &mut v, residual / diagonal, &response);
+                if delta != 0.0 {
+                    if soft {
+                        total += delta;
+                    }
+                    largest = largest.max(delta.abs() * k);
+                    last_changed = Some(i);
+                    changed = true;
+                }
+            }
+            if iteration == 0 {
+                first = largest;
+            }
+            if last_changed <= first_row {
+                break 'passes true;
+            }
+            if largest <= tolerance {
+                break;
             }
         }
-        if iteration == 0 {
-            first = largest;
-        }
-        if last_changed <= first_row {
-            return (true, first, changed);
-        }
-        if largest <= tolerance {
-            break;
-        }
+        false
+    };
+    if changed {
+        v.store(bodies, body_a, body_b);
     }
-    (false, first, changed)
+    (converged, first, changed)
 }
 
 /// `K_ii` of row `c` with the support's response scaled: `linear` its bodies' linear terms
@@ -431,7 +454,7 @@ pub(super) fn block_row(
 #[inline]
 pub(super) fn update_row(
     c: &mut ContactConstraint,
-    bodies: &mut [SolverBody],
+    v: &mut PairVelocities,
     step: f32,
     response: &Response,
 ) -> f32 {
@@ -439,7 +462,7 @@ pub(super) fn update_row(
     let delta = new - c.normal_impulse;
     if delta != 0.0 {
         c.normal_impulse = new;
-        apply_response(c, bodies, delta, response);
+        apply_response(c, v, delta, response);
     }
     c.max_normal_impulse = c.max_normal_impulse.max(new);
     delta
