@@ -336,26 +336,55 @@ impl ContactConstraint {
 
 /// Applies the accumulated impulses (normal and friction) carried over from the previous step
 /// or substep (its work recorded in `ledger`, on rows that keep one).
+///
+/// Consecutive rows of the same two bodies (a manifold's) are applied to their velocities held
+/// in locals, read once and written back once (see [`PairVelocities`]): the same operations in
+/// the same order.
 pub fn warm_start(
     bodies: &mut [SolverBody],
     contacts: &[ContactConstraint],
     ledger: &mut RestitutionLedger,
 ) {
+    let mut held: Option<((usize, usize), PairVelocities)> = None;
     for c in contacts {
-        if c.normal_impulse != 0.0 {
+        let pushes = c.normal_impulse != 0.0;
+        let holds = c.friction > 0.0 && c.tangent_impulse != [0.0; 2];
+        if !pushes && !holds {
+            continue;
+        }
+        let pair = (c.body_a, c.body_b);
+        let v = match &mut held {
+            Some((p, v)) if *p == pair => v,
+            _ => {
+                if let Some(((a, b), v)) = held {
+                    v.store(bodies, a, b);
+                }
+                &mut held
+                    .insert((pair, PairVelocities::load(bodies, pair.0, pair.1)))
+                    .1
+            }
+        };
+        if pushes {
             if c.ledger != NO_LEDGER {
-                let vn = c.normal_velocity(bodies);
+                let vn = c.normal_velocity_in(v);
                 ledger.record(c, vn, vn + c.normal_impulse / c.normal_mass);
             }
-            c.apply_normal_impulse(bodies, c.normal_impulse);
+            c.apply_normal_impulse_to(
+                (&mut v.a.linear, &mut v.a.angular, v.a.inverse_mass),
+                (&mut v.b.linear, &mut v.b.angular, v.b.inverse_mass),
+                c.normal_impulse,
+            );
         }
         if c.friction > 0.0 {
             for k in 0..2 {
                 if c.tangent_impulse[k] != 0.0 {
-                    c.apply_tangent_impulse(bodies, k, c.tangent_impulse[k]);
+                    c.apply_tangent_impulse_in(v, k, c.tangent_impulse[k]);
                 }
             }
         }
+    }
+    if let Some(((a, b), v)) = held {
+        v.store(bodies, a, b);
     }
 }
 
