@@ -10,8 +10,6 @@ use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
 mod friction;
 
-#[cfg(test)]
-use friction::clamp_to_room;
 pub use friction::{solve_friction, solve_friction_in};
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.

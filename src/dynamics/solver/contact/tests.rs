@@ -1,5 +1,6 @@
 //! Contact rows against the seed formula, and the stick impulse against its closed form and bounds.
 
+use super::friction::clamp_to_room;
 use super::*;
 use crate::impulse::{ImpulseBody, inverse_effective_mass};
 use bevy::math::{BVec3, Mat3};
