@@ -9,7 +9,8 @@
 //!
 //! Environment: `METHOD=soft` (the soft step instead of the default), `N` (cubes), `RATIO` (light
 //! over heavy mass), `ONLY=60,1` (one rate and friction, with each step's rise on stderr),
-//! `TRACE=1` (every 10th step, each cube's horizontal offset / tilt, rad), and overrides of
+//! `TRACE=1` (every 10th step, each cube's horizontal offset / tilt, rad), `SECS` (seconds to
+//! run, default 10), and overrides of
 //! `SolverConfig`: `HZ` (contact hertz), `SUB`, `ITER`, `RELAX`, `BLOCK`, `PUSH`, `TOL`, `WARM=0`.
 #[path = "support/config_env.rs"]
 mod config_env;
@@ -73,7 +74,11 @@ fn main() {
             app.update();
             let e0 = energy(&app, &cubes);
             let (mut worst, mut at) = (0.0f64, 0);
-            let steps = (10.0 * hz) as u32;
+            let steps = (std::env::var("SECS")
+                .ok()
+                .and_then(|s| s.parse::<f64>().ok())
+                .unwrap_or(10.0)
+                * hz) as u32;
             for step in 0..steps {
                 app.update();
                 let rise = energy(&app, &cubes) - e0;

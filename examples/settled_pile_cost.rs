@@ -10,8 +10,10 @@
 //! Pass a count (`settled_pile_cost 1000`) for a smaller pile, and `--timed-only N` to run
 //! only the N-th method (0 the default, 1 the soft step) for 1,000 timed steps, for a profiler.
 //! `BODIES=boxes` (or `mixed`) in the environment pours cubes (or the mixed shapes) instead of
-//! spheres. `RELAX=n` sets both methods' relax iterations (4: 2,000 spheres 9.7 -> 13.4 ms a
-//! step under the default, 2026-12-06).
+//! spheres. The environment overrides both methods' settings as `wall_cost`'s does
+//! (`examples/support/config_env.rs`): `RELAX=n` their relax iterations (4: 2,000 spheres 9.7
+//! -> 13.4 ms a step under the default, 2026-12-06), `FRICTION=manifold` the hybrid's
+//! manifold friction.
 
 use std::time::Instant;
 
@@ -19,13 +21,14 @@ use bevy::prelude::*;
 use impact3d::prelude::*;
 use impact3d::scenes::{self, Pour, PourBodies};
 
+#[path = "support/config_env.rs"]
+mod config_env;
+
 /// A settled pile of `count` spheres under `method`, ready to be timed.
 fn settled_pile(method: SolverMethod, count: usize) -> App {
     let mut app = scenes::headless_app(60.0);
     let mut config = SolverConfig::for_method(method);
-    if let Some(n) = std::env::var("RELAX").ok().and_then(|v| v.parse().ok()) {
-        config.relax_iterations = n;
-    }
+    config_env::override_from_env(&mut config);
     app.insert_resource(config);
     app.insert_resource(SleepConfig {
         enabled: false,

@@ -41,11 +41,11 @@ pub mod prelude {
     pub use crate::dynamics::{
         AccumulatedForces, AngularDamping, AngularVelocity, CoefficientCombine, ComputedMass,
         ConstantAngularAcceleration, ConstantForce, ConstantLinearAcceleration, ConstantLocalForce,
-        ConstantLocalTorque, ConstantTorque, Density, Forces, Friction, FrictionCombine, Gravity,
-        GravityScale, ImpactMessages, LinearDamping, LinearVelocity, LockedAxes, Mass,
-        MaxAngularSpeed, MaxLinearSpeed, PhysicsLengthUnit, Quarantined, Restitution,
-        RestitutionCombine, RigidBody, RigidBodyDisabled, SleepConfig, Sleeping, SleepingDisabled,
-        SolverConfig, SolverMethod, SolverStats,
+        ConstantLocalTorque, ConstantTorque, Density, Forces, Friction, FrictionCombine,
+        FrictionModel, Gravity, GravityScale, ImpactMessages, LinearDamping, LinearVelocity,
+        LockedAxes, Mass, MaxAngularSpeed, MaxLinearSpeed, PhysicsLengthUnit, Quarantined,
+        Restitution, RestitutionCombine, RigidBody, RigidBodyDisabled, SleepConfig, Sleeping,
+        SleepingDisabled, SolverConfig, SolverMethod, SolverStats,
     };
     pub use crate::interpolation::{
         InterpolationConfig, InterpolationPlugin, TransformInterpolation,

@@ -679,20 +679,24 @@ fn column_friction_family_pinned() {
 
 /// Issue 8, the column's family wider: uniform columns of 18-30 cubes, friction 0.4, 0.5 and
 /// 0.7, at 30 and 60 Hz (42 columns, 20 s awake each), every one within the issue's 1 mm.
-/// Measured 2026-12-07 (release): all under 0.01 mm. Before the biases of a rigid tilt were
+/// Measured 2026-12-07 (release): all under 0.013 mm; since a sliding contact takes the
+/// nearest point of the Coulomb disc (`disc_solve`), the 60 Hz columns still all under
+/// 0.03 mm, but at 30 Hz 20 cubes drift 0.18-0.35 mm, 22 cubes 0.65 mm, 30 cubes 0.98 mm with
+/// friction 0.5 and 0.119 m with friction 0.4 (failing, pinned by the ignore reason). Before the biases of a rigid tilt were
 /// projected onto a rigid motion's fields (`project_biases` in the solver), one of the 42
 /// failed, a different one with the rounding of the iterations: 30 cubes at 30 Hz, friction
 /// 0.5 (58 mm) with the iterations on the bodies, friction 0.7 (45 mm) in velocity space. Run
 /// it after any change to the resting phase. About 20 s in release; `#[ignore]`d for the
 /// default run.
 #[test]
-#[ignore = "long: 42 columns of 20 s; run in release"]
+#[ignore = "fails (issue 8): 30 cubes, friction 0.4, 30 Hz drift 0.119 m since sliding friction takes the disc's nearest point (2026-12-07); the other 41 within 1 mm. 42 columns of 20 s; run in release"]
 fn column_friction_family_wide() {
     let mut failed = Vec::new();
     for hz in [30.0, 60.0] {
         for n in [18, 19, 20, 21, 22, 25, 30] {
             for friction in [0.4, 0.5, 0.7] {
                 let drift = column_drift(awake_default_at(hz), n, friction, 1.0, 20.0);
+                println!("{n} cubes, friction {friction}, {hz} Hz: {drift:.3e} m");
                 if drift >= 1e-3 {
                     failed.push(format!(
                         "{n} cubes, friction {friction}, {hz} Hz: {drift} m"

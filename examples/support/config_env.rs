@@ -1,12 +1,13 @@
 //! The solver settings the probe examples take from the environment (included by
 //! `#[path]`: a folder without `main.rs` is not an example of its own).
 
-use impact3d::prelude::SolverConfig;
+use impact3d::prelude::{FrictionModel, SolverConfig};
 
 /// Overrides fields of `config` from the environment, for trying settings without a rebuild:
 /// `HZ` (contact hertz), `SUB` (substeps), `ITER` (iterations), `RELAX` (relax iterations),
 /// `BLOCK` (block iterations), `PUSH` (largest push-out speed, m/s), `TOL` (velocity tolerance,
-/// m/s), `SLOP` (linear slop, m), `WARM=0` (no warm start).
+/// m/s), `SLOP` (linear slop, m), `WARM=0` (no warm start), `FRICTION=manifold` (the
+/// hybrid's manifold friction, [`FrictionModel::Manifold`]).
 pub fn override_from_env(config: &mut SolverConfig) {
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f32>().ok());
     if let Some(h) = env("HZ") {
@@ -35,5 +36,8 @@ pub fn override_from_env(config: &mut SolverConfig) {
     }
     if env("WARM") == Some(0.0) {
         config.warm_start = false;
+    }
+    if std::env::var("FRICTION").as_deref() == Ok("manifold") {
+        config.friction_model = FrictionModel::Manifold;
     }
 }

@@ -19,7 +19,7 @@ pub use rigid_body::{
     RigidBodyDisabled,
 };
 pub use sleep::{SleepConfig, SleepTimer, Sleeping, SleepingDisabled};
-pub use solver::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
+pub use solver::{FrictionModel, ImpactMessages, SolverConfig, SolverMethod, SolverStats};
 pub use validation::PhysicsLengthUnit;
 
 use bevy::prelude::*;

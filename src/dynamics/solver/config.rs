@@ -83,6 +83,24 @@ pub enum ImpactMessages {
     AllContacts,
 }
 
+/// How the hybrid method solves friction on a manifold of several points (a face or an edge
+/// resting on another body).
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum FrictionModel {
+    /// Two friction rows at each contact point, each bounded by its own point's normal impulse
+    /// (Box2D's). Default.
+    #[default]
+    PerPoint,
+    /// Two friction rows at the manifold's centroid bounded together by the manifold's total
+    /// normal impulse, and a twist row about the normal bounded by that times the points' mean
+    /// distance from the centroid (Rapier's default, `FrictionModel::Simplified`): three rows
+    /// for a face's four points instead of eight. The impulses are handed back to the points
+    /// (so warm starting and contact persistence are unchanged). Hybrid method only: the other
+    /// methods solve friction per point. Single-point manifolds (spheres) are per point either
+    /// way.
+    Manifold,
+}
+
 /// Solver settings, read every step: change them at run time. The contact margin, speculative
 /// contacts and the touch distance are the narrow phase's
 /// ([`NarrowPhaseConfig`](crate::collision::NarrowPhaseConfig)).
@@ -145,6 +163,9 @@ pub struct SolverConfig {
     pub warm_start: bool,
     /// Mass splitting for Jacobi. Default true.
     pub mass_splitting: bool,
+    /// How the hybrid method solves a manifold's friction. Default
+    /// [`FrictionModel::PerPoint`].
+    pub friction_model: FrictionModel,
     /// Which contacts send [`Impact`](crate::Impact) messages. Default
     /// [`ImpactMessages::Impacts`].
     pub impact_messages: ImpactMessages,
@@ -170,6 +191,7 @@ impl Default for SolverConfig {
             linear_slop: 0.005,
             warm_start: true,
             mass_splitting: true,
+            friction_model: FrictionModel::PerPoint,
             impact_messages: ImpactMessages::Impacts,
         }
     }

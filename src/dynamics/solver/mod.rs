@@ -32,7 +32,7 @@ use std::ops::Range;
 use bevy::prelude::*;
 
 pub use body::{Motion, SolverBody, integrate_positions, integrate_velocities};
-pub use config::{ImpactMessages, SolverConfig, SolverMethod, SolverStats};
+pub use config::{FrictionModel, ImpactMessages, SolverConfig, SolverMethod, SolverStats};
 pub use contact::{ContactConstraint, prepare_contacts, refresh_inertia, warm_start};
 use propagation::{Propagation, PropagationScratch, propagate_with};
 

@@ -8,7 +8,9 @@ use crate::impulse::row_impulse;
 
 use super::body::{SolverBody, integrate_positions_owing, integrate_velocities};
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
-use super::hybrid::{Block, BlockRow, ManifoldSolve, manifold_sweep};
+use super::hybrid::{
+    Block, BlockRow, ManifoldFriction, ManifoldSolve, manifold_frictions, manifold_sweep,
+};
 use super::iterative::{Settling, Sweep};
 use super::ledger::RestitutionLedger;
 use super::{SolverConfig, SolverStats};
@@ -21,6 +23,9 @@ pub struct SoftScratch {
     settling: Settling,
     /// A manifold block's rows (see [`manifold_sweep`]).
     rows: Vec<BlockRow>,
+    /// Each block's friction rows under [`FrictionModel::Manifold`](super::FrictionModel::Manifold)
+    /// (empty per point).
+    frictions: Vec<ManifoldFriction>,
     /// The bodies' velocities before a substep's gravity (see
     /// [`RestitutionLedger::charge_split`]).
     before: Vec<Vec3>,
@@ -118,13 +123,18 @@ pub(super) fn soft_substeps(
     let SoftScratch {
         settling,
         rows,
+        frictions,
         before,
         ..
     } = scratch;
     settling.friction_changed = false;
+    if let Resting::Manifolds(blocks) = resting {
+        manifold_frictions(config.friction_model, bodies, contacts, blocks, frictions);
+    }
     let mut sweep = |bodies: &mut [SolverBody],
                      contacts: &mut [ContactConstraint],
                      settling: &mut Settling,
+                     frictions: &[ManifoldFriction],
                      soft: Option<Softness>,
                      leave_impacts: Option<f32>| match resting {
         Resting::Manifolds(blocks) => {
@@ -137,7 +147,7 @@ pub(super) fn soft_substeps(
                 tolerance: config.velocity_tolerance,
                 tilt_stiffness,
             };
-            manifold_sweep(bodies, contacts, blocks, &solve, settling, rows)
+            manifold_sweep(bodies, contacts, blocks, frictions, &solve, settling, rows)
         }
         Resting::Rows | Resting::Idle => soft_sweep(
             bodies,
@@ -163,7 +173,7 @@ pub(super) fn soft_substeps(
         if !skip {
             warm_start(bodies, contacts, &mut settling.ledger);
             solve_rows(config.iterations.max(1), stats, || {
-                sweep(bodies, contacts, settling, Some(soft), None).done(tolerance)
+                sweep(bodies, contacts, settling, frictions, Some(soft), None).done(tolerance)
             });
         }
         if settling.ledger.is_open() {
@@ -174,12 +184,17 @@ pub(super) fn soft_substeps(
             // The rows' `I^-1 (r x n)` at the inertia the bodies turned to, for the relax
             // pass and the next substep (see `refresh_inertia`).
             refresh_inertia(bodies, contacts);
+            if let Resting::Manifolds(blocks) = resting {
+                for (rows, block) in frictions.iter_mut().zip(blocks) {
+                    rows.refresh(bodies, &contacts[block.range.clone()]);
+                }
+            }
             // In the hybrid method, the last relax pass leaves impacts that close after the
             // step to the next step's impact phase.
             let leave_impacts =
                 (hybrid && substep + 1 == n).then_some(config.restitution_threshold);
             relax(config.relax_iterations, stats, || {
-                sweep(bodies, contacts, settling, None, leave_impacts).done(tolerance)
+                sweep(bodies, contacts, settling, frictions, None, leave_impacts).done(tolerance)
             });
         }
         store_impulses(contacts);

@@ -329,6 +329,7 @@ impl SolverConfig {
             ),
             warm_start: self.warm_start,
             mass_splitting: self.mass_splitting,
+            friction_model: self.friction_model,
             impact_messages: self.impact_messages,
         };
         (valid, e)

@@ -10,6 +10,7 @@ use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
 mod friction;
 
+pub(crate) use friction::{clamp_to_room, disc_solve};
 pub use friction::{solve_friction, solve_friction_in};
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.
@@ -69,8 +70,9 @@ pub struct ContactConstraint {
     pub approach_velocity: f32,
     /// Tangent directions, world frame.
     pub tangents: [Vec3; 2],
-    /// Effective masses along the tangents, kg.
-    pub tangent_mass: [f32; 2],
+    /// The tangent plane's 2 x 2 inverse effective mass `K_t` (the seed formula's denominator
+    /// with `t_k`, `t_l` in place of `n`, `n`), as its entries `[k00, k01, k11]`, 1/kg.
+    pub tangent_k: [f32; 3],
     /// `I^-1 (r x t)` for A and B and each tangent.
     pub tangent_ang: [[Vec3; 2]; 2],
 
@@ -120,7 +122,7 @@ impl ContactConstraint {
             base_separation: separation,
             approach_velocity: 0.0,
             tangents: [Vec3::ZERO; 2],
-            tangent_mass: [0.0; 2],
+            tangent_k: [0.0; 3],
             tangent_ang: [[Vec3::ZERO; 2]; 2],
             max_normal_impulse: 0.0,
             total_impulse: 0.0,
@@ -387,4 +389,4 @@ pub fn warm_start(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

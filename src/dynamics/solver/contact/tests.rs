@@ -1,7 +1,7 @@
 //! Contact rows against the seed formula, and the stick impulse against its closed form and bounds.
 
-use super::friction::clamp_to_room;
 use super::*;
+use super::{clamp_to_room, disc_solve};
 use crate::impulse::{ImpulseBody, inverse_effective_mass};
 use bevy::math::{BVec3, Mat3};
 
@@ -17,7 +17,7 @@ fn as_impulse(b: &SolverBody) -> ImpulseBody {
 }
 
 /// A seeded xorshift stream of numbers uniform in [0, 1).
-fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
+pub(crate) fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
     move || {
         seed ^= seed << 13;
         seed ^= seed >> 7;
@@ -27,7 +27,7 @@ fn uniform(mut seed: u64) -> impl FnMut() -> f32 {
 }
 
 /// A vector with each component uniform in [-scale, scale).
-fn random_vec(scale: f32, unit: &mut dyn FnMut() -> f32) -> Vec3 {
+pub(crate) fn random_vec(scale: f32, unit: &mut dyn FnMut() -> f32) -> Vec3 {
     Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * 2.0 * scale
 }
 
@@ -375,4 +375,96 @@ fn friction_clamp_shortcut_is_the_clamp() {
         }
     }
     assert!(checked > 100_000);
+}
+
+/// The change of kinetic energy, J, of a tangent plane's impulse change `d` at slip `slip`
+/// under `K = [k00, k01, k11]`: `d . slip + d . K d / 2`, in f64.
+fn plane_energy(d: [f64; 2], slip: [f32; 2], k: [f32; 3]) -> f64 {
+    let [k00, k01, k11] = k.map(f64::from);
+    d[0] * slip[0] as f64
+        + d[1] * slip[1] as f64
+        + 0.5 * (k00 * d[0] * d[0] + 2.0 * k01 * d[0] * d[1] + k11 * d[1] * d[1])
+}
+
+/// A random symmetric positive definite `K_t` (condition numbers up to about 100, scales over
+/// four decades), an accumulated impulse inside the disc, a slip and a limit.
+fn random_plane(unit: &mut dyn FnMut() -> f32) -> ([f32; 3], [f32; 2], [f32; 2], f32) {
+    let scale = 10f32.powf(unit() * 4.0 - 2.0);
+    let (l1, l2) = (scale * (0.01 + unit()), scale * (0.01 + unit()));
+    let angle = unit() * std::f32::consts::TAU;
+    let (c, s) = (angle.cos(), angle.sin());
+    let k = [
+        l1 * c * c + l2 * s * s,
+        (l1 - l2) * c * s,
+        l1 * s * s + l2 * c * c,
+    ];
+    let limit = 10f32.powf(unit() * 2.0 - 1.0);
+    let (r, a) = (limit * unit().sqrt(), unit() * std::f32::consts::TAU);
+    let old = [r * a.cos(), r * a.sin()];
+    let slip = [(unit() - 0.5) * 20.0, (unit() - 0.5) * 20.0];
+    (k, old, slip, limit)
+}
+
+/// `disc_solve` is the nearest point of the Coulomb disc to the stopped slip in `K`'s metric:
+/// its answer lies in the disc, lowers the energy at least as much as any of 720 points on the
+/// disc's edge and the centre (each checked against it in f64), and never raises it from an
+/// impulse inside the disc. Bounds: the disc's radius plus 1e-6 of it (the projection's
+/// tolerance), and 1e-5 of the energy scale `limit * |slip| + K limit^2` (f32 rounding).
+#[test]
+fn friction_disc_solve_is_the_nearest_point_of_the_disc() {
+    let mut unit = uniform(0x00d1_5c50);
+    for case in 0..2000 {
+        let (k, old, slip, limit) = random_plane(&mut unit);
+        let new = disc_solve(old, slip, k, limit);
+        let size = (new[0] * new[0] + new[1] * new[1]).sqrt();
+        assert!(
+            size <= limit * (1.0 + 1e-6),
+            "case {case}: |f| {size} > {limit}"
+        );
+        let energy =
+            |f: [f32; 2]| plane_energy([(f[0] - old[0]) as f64, (f[1] - old[1]) as f64], slip, k);
+        let scale = limit as f64 * (slip[0].hypot(slip[1]) as f64)
+            + (k[0] + k[2]) as f64 * (limit as f64).powi(2);
+        let tolerance = 1e-5 * scale;
+        let found = energy(new);
+        assert!(found <= tolerance, "case {case}: energy rose by {found}");
+        let mut best = energy([0.0; 2]);
+        for i in 0..720 {
+            let a = i as f32 * std::f32::consts::TAU / 720.0;
+            best = best.min(energy([limit * a.cos(), limit * a.sin()]));
+        }
+        assert!(
+            found <= best + tolerance,
+            "case {case}: {found} against {best} on the edge"
+        );
+    }
+}
+
+/// `disc_solve` does not depend on the tangent basis: the same plane in a basis turned by an
+/// angle (`K' = R^T K R`, the slip and the impulse turned with it) gives the same impulse,
+/// turned. Bound: 1e-4 of the limit (f32 rounding through the turned `K`, and the projection's
+/// tolerance). The tangent-by-tangent clamp it replaces fails this at the disc's edge.
+#[test]
+fn friction_disc_solve_is_isotropic() {
+    let mut unit = uniform(0x150_7e0c);
+    for case in 0..2000 {
+        let (k, old, slip, limit) = random_plane(&mut unit);
+        let angle = unit() * std::f32::consts::TAU;
+        let (c, s) = (angle.cos(), angle.sin());
+        // Components in the turned basis: x' = R^T x.
+        let turn = |x: [f32; 2]| [c * x[0] + s * x[1], -s * x[0] + c * x[1]];
+        let [k00, k01, k11] = k;
+        let turned_k = [
+            c * c * k00 + 2.0 * c * s * k01 + s * s * k11,
+            (c * c - s * s) * k01 + c * s * (k11 - k00),
+            s * s * k00 - 2.0 * c * s * k01 + c * c * k11,
+        ];
+        let new = turn(disc_solve(old, slip, k, limit));
+        let turned = disc_solve(turn(old), turn(slip), turned_k, limit);
+        let gap = (new[0] - turned[0]).hypot(new[1] - turned[1]);
+        assert!(
+            gap <= 1e-4 * limit,
+            "case {case}: {new:?} against {turned:?}"
+        );
+    }
 }

@@ -106,6 +106,7 @@ pub fn manifold_sweep(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
     blocks: &[Block],
+    frictions: &[ManifoldFriction],
     solve: &ManifoldSolve,
     settling: &mut Settling,
     rows: &mut Vec<BlockRow>,
@@ -158,8 +159,12 @@ pub fn manifold_sweep(
                 break;
             }
         }
-        for block in &blocks[start..end] {
-            settling.friction_changed |= block_friction(bodies, &mut contacts[block.range.clone()]);
+        for (k, block) in blocks.iter().enumerate().take(end).skip(start) {
+            let group = &mut contacts[block.range.clone()];
+            settling.friction_changed |= match frictions.get(k).filter(|f| f.ready) {
+                Some(rows) => manifold_friction(bodies, group, rows),
+                None => block_friction(bodies, group),
+            };
         }
         start = end;
     }
@@ -184,6 +189,22 @@ fn block_friction(bodies: &mut [SolverBody], group: &mut [ContactConstraint]) ->
         debug_assert_eq!((c.body_a, c.body_b), (a, b));
         changed |= solve_friction_in(&mut v, c);
     }
+    if changed {
+        v.store(bodies, a, b);
+    }
+    changed
+}
+
+/// A block's friction under [`FrictionModel::Manifold`]: its [`ManifoldFriction`] rows on its
+/// two bodies' velocities, read once and written back once. Returns whether any changed.
+fn manifold_friction(
+    bodies: &mut [SolverBody],
+    group: &mut [ContactConstraint],
+    rows: &ManifoldFriction,
+) -> bool {
+    let (a, b) = (group[0].body_a, group[0].body_b);
+    let mut v = PairVelocities::load(bodies, a, b);
+    let changed = rows.solve_in(&mut v, group);
     if changed {
         v.store(bodies, a, b);
     }

@@ -349,6 +349,7 @@ fn sweep_one_block(
         bodies,
         contacts,
         &blocks,
+        &[],
         &solve,
         &mut Settling::default(),
         &mut Vec::new(),
