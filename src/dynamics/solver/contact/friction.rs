@@ -66,24 +66,8 @@ impl ContactConstraint {
     /// against an accumulated impulse, as [`solve_friction`] does over iterations, has no such
     /// bound on a single application.) The tangent rows must be prepared.
     pub fn apply_stick_impulse(&self, bodies: &mut [SolverBody], limit: f32) -> [f32; 2] {
-        let (a, b) = (&bodies[self.body_a], &bodies[self.body_b]);
-        let (ra, rb) = (self.anchor_a, self.anchor_b);
-        // `K_t`'s entries are the seed formula's denominator for the tangents `t_i`, `t_l`
-        // ([`row_inverse_mass`]; the linear part only on the diagonal, `t_i . t_l = 0` off it).
-        let k = |i: usize, l: usize| {
-            let t = self.tangents[i];
-            let linear = if i == l {
-                [a.inverse_mass, b.inverse_mass]
-            } else {
-                [0.0; 2]
-            };
-            let angular = [
-                ra.cross(t).dot(self.tangent_ang[0][l]),
-                rb.cross(t).dot(self.tangent_ang[1][l]),
-            ];
-            row_inverse_mass(linear, angular)
-        };
-        let (k00, k01, k11) = (k(0, 0), 0.5 * (k(0, 1) + k(1, 0)), k(1, 1));
+        // `K_t`, as `prepare_tangent_rows` derived it.
+        let [k00, k01, k11] = self.tangent_k;
         let v = [
             self.tangent_velocity(bodies, 0),
             self.tangent_velocity(bodies, 1),
