@@ -9,9 +9,11 @@
 //!
 //! Environment: `METHOD=soft` (the soft step instead of the default), `N` (cubes), `RATIO` (light
 //! over heavy mass), `ONLY=60,1` (one rate and friction, with each step's rise on stderr),
+//! `RATES=30,60` and `FRICTIONS=0.4,0.5` (the rates and frictions to run),
 //! `TRACE=1` (every 10th step, each cube's horizontal offset / tilt, rad), `SECS` (seconds to
 //! run, default 10), and overrides of
-//! `SolverConfig`: `HZ` (contact hertz), `SUB`, `ITER`, `RELAX`, `BLOCK`, `PUSH`, `TOL`, `WARM=0`.
+//! `SolverConfig`: `HZ` (contact hertz), `SUB`, `ITER`, `RELAX`, `BLOCK`, `PUSH`, `TOL`, `WARM=0`,
+//! `FRICTION=manifold` or `per_point`.
 #[path = "support/config_env.rs"]
 mod config_env;
 
@@ -49,8 +51,14 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(0.01);
-    for hz in [30.0, 60.0, 120.0] {
-        for friction in [0.0, 0.2, 1.0] {
+    let list = |name: &str, default: &[f64]| -> Vec<f64> {
+        std::env::var(name).map_or(default.to_vec(), |s| {
+            s.split(',').filter_map(|x| x.parse().ok()).collect()
+        })
+    };
+    for hz in list("RATES", &[30.0, 60.0, 120.0]) {
+        for friction in list("FRICTIONS", &[0.0, 0.2, 1.0]) {
+            let friction = friction as f32;
             let only = std::env::var("ONLY").ok();
             if only
                 .as_ref()
@@ -108,7 +116,8 @@ fn main() {
                 .unwrap()
                 .translation;
             println!(
-                "{hz} Hz friction {friction}: worst rise {worst:.3} J at step {at}; top at {top:.2}"
+                "{hz} Hz friction {friction}: worst rise {worst:.3} J at step {at}; top at {top:.2}, {:.3e} m aside",
+                top.xz().length()
             );
         }
     }

@@ -10,6 +10,12 @@
 //! ```sh
 //! cargo run --release --example family_probe [name filter, e.g. " e0.5" or "pyramid"]
 //! ```
+//!
+//! The environment overrides the default's settings as `wall_cost`'s does
+//! (`examples/support/config_env.rs`), e.g. `FRICTION=per_point`.
+
+#[path = "support/config_env.rs"]
+mod config_env;
 
 use bevy::prelude::*;
 use impact3d::prelude::*;
@@ -37,7 +43,9 @@ fn run(s: &Scene) {
                 .insert(Restitution(s.restitution));
         }
     }
-    let config = SolverConfig::default();
+    let mut config = SolverConfig::default();
+    config_env::override_from_env(&mut config);
+    app.insert_resource(config.clone());
     let limit = (2.0 * 9.81 * spawned.top).sqrt() + config.max_push_out_speed;
     let steps = (s.seconds as f64 * s.hz) as u32;
     let (mut fastest, mut at, mut hits) = (0.0f32, 0, 0);

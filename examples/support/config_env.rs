@@ -6,8 +6,8 @@ use impact3d::prelude::{FrictionModel, SolverConfig};
 /// Overrides fields of `config` from the environment, for trying settings without a rebuild:
 /// `HZ` (contact hertz), `SUB` (substeps), `ITER` (iterations), `RELAX` (relax iterations),
 /// `BLOCK` (block iterations), `PUSH` (largest push-out speed, m/s), `TOL` (velocity tolerance,
-/// m/s), `SLOP` (linear slop, m), `WARM=0` (no warm start), `FRICTION=manifold` (the
-/// hybrid's manifold friction, [`FrictionModel::Manifold`]).
+/// m/s), `SLOP` (linear slop, m), `WARM=0` (no warm start), `FRICTION=manifold` or
+/// `FRICTION=per_point` (the hybrid's friction model, [`FrictionModel`]).
 pub fn override_from_env(config: &mut SolverConfig) {
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f32>().ok());
     if let Some(h) = env("HZ") {
@@ -37,7 +37,9 @@ pub fn override_from_env(config: &mut SolverConfig) {
     if env("WARM") == Some(0.0) {
         config.warm_start = false;
     }
-    if std::env::var("FRICTION").as_deref() == Ok("manifold") {
-        config.friction_model = FrictionModel::Manifold;
+    match std::env::var("FRICTION").as_deref() {
+        Ok("manifold") => config.friction_model = FrictionModel::Manifold,
+        Ok("per_point") => config.friction_model = FrictionModel::PerPoint,
+        _ => {}
     }
 }
