@@ -28,6 +28,8 @@ pub struct ContactImpulse {
     pub normal: f32,
     /// Accumulated friction impulse along the two tangents, N s.
     pub tangent: [f32; 2],
+    /// The point's share of its manifold's twist friction about the normal, N m s.
+    pub twist: f32,
 }
 
 /// A parry manifold whose points carry [`ContactImpulse`].

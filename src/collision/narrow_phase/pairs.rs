@@ -88,11 +88,13 @@ impl ContactPairs {
         for (c, &(p, m, k)) in rows.iter().zip(keys) {
             let finite = c.normal_impulse.is_finite()
                 && c.tangent_impulse[0].is_finite()
-                && c.tangent_impulse[1].is_finite();
+                && c.tangent_impulse[1].is_finite()
+                && c.twist_impulse.is_finite();
             self.pairs[p as usize].manifolds[m as usize].points[k as usize].data = if finite {
                 ContactImpulse {
                     normal: c.normal_impulse,
                     tangent: c.tangent_impulse,
+                    twist: c.twist_impulse,
                 }
             } else {
                 ContactImpulse::default()

@@ -132,6 +132,14 @@ pub fn step_with_scratch(
         for c in contacts.iter_mut() {
             c.normal_impulse = 0.0;
             c.tangent_impulse = [0.0; 2];
+            c.twist_impulse = 0.0;
+        }
+    } else if !(config.method == SolverMethod::Hybrid
+        && config.friction_model == FrictionModel::Manifold)
+    {
+        // Only the manifold friction reads a twist (a model or method changed at run time).
+        for c in contacts.iter_mut() {
+            c.twist_impulse = 0.0;
         }
     }
     prepare_contacts(bodies, contacts);

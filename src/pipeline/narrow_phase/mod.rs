@@ -472,6 +472,7 @@ fn push_row(
     let carried = pair.manifolds[m].points[k].data;
     row.normal_impulse = carried.normal;
     row.tangent_impulse = carried.tangent;
+    row.twist_impulse = carried.twist;
     rows.contacts.push(row);
     rows.keys.push((pair_index as u32, m as u32, k as u32));
 }

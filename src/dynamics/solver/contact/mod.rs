@@ -35,6 +35,11 @@ pub struct ContactConstraint {
     pub normal_impulse: f32,
     /// Accumulated friction impulse along the two tangents, N s.
     pub tangent_impulse: [f32; 2],
+    /// This point's share of its manifold's accumulated twist friction, an angular impulse
+    /// about the normal, N m s (the hybrid's [`FrictionModel::Manifold`](super::FrictionModel);
+    /// zero otherwise). Applied as the pure torque its twist row applies, so that the warm
+    /// start puts back exactly what the row reads (see `ManifoldFriction::solve_in`).
+    pub twist_impulse: f32,
     /// Normal velocity, m/s, added to the rows' first-order `v_rel . n` for a contact on a face
     /// of a turning kinematic body, carried to its end-of-step pose: the mean normal velocity of
     /// the kinematic body's contact point over the step, `(x(dt) - x(0)) . n / dt`, less the
@@ -110,6 +115,7 @@ impl ContactConstraint {
             friction,
             normal_impulse: 0.0,
             tangent_impulse: [0.0; 2],
+            twist_impulse: 0.0,
             drive: 0.0,
             anchor_a: Vec3::ZERO,
             anchor_b: Vec3::ZERO,
@@ -293,6 +299,7 @@ pub fn prepare_contacts(bodies: &[SolverBody], contacts: &mut [ContactConstraint
             c.prepare_tangent_rows(a, b);
         } else {
             c.tangent_impulse = [0.0; 2];
+            c.twist_impulse = 0.0;
         }
     }
 }
@@ -348,7 +355,7 @@ pub fn warm_start(
     let mut held: Option<((usize, usize), PairVelocities)> = None;
     for c in contacts {
         let pushes = c.normal_impulse != 0.0;
-        let holds = c.friction > 0.0 && c.tangent_impulse != [0.0; 2];
+        let holds = c.friction > 0.0 && (c.tangent_impulse != [0.0; 2] || c.twist_impulse != 0.0);
         if !pushes && !holds {
             continue;
         }
@@ -380,6 +387,11 @@ pub fn warm_start(
                 if c.tangent_impulse[k] != 0.0 {
                     c.apply_tangent_impulse_in(v, k, c.tangent_impulse[k]);
                 }
+            }
+            if c.twist_impulse != 0.0 {
+                let twist = c.twist_impulse * c.normal;
+                v.a.angular -= bodies[c.body_a].inverse_inertia * twist;
+                v.b.angular += bodies[c.body_b].inverse_inertia * twist;
             }
         }
     }

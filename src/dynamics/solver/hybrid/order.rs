@@ -401,6 +401,7 @@ pub(super) fn from_block_order(
             } else {
                 c.normal_impulse = solved.normal_impulse;
                 c.tangent_impulse = solved.tangent_impulse;
+                c.twist_impulse = solved.twist_impulse;
                 c.max_normal_impulse = solved.max_normal_impulse;
                 c.total_impulse = solved.total_impulse;
             }
