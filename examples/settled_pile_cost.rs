@@ -12,8 +12,8 @@
 //! `BODIES=boxes` (or `mixed`) in the environment pours cubes (or the mixed shapes) instead of
 //! spheres. The environment overrides both methods' settings as `wall_cost`'s does
 //! (`examples/support/config_env.rs`): `RELAX=n` their relax iterations (4: 2,000 spheres 9.7
-//! -> 13.4 ms a step under the default, 2026-12-06), `FRICTION=manifold` the hybrid's
-//! manifold friction.
+//! -> 13.4 ms a step under the default, 2026-12-06), `FRICTION=per_point` the hybrid's
+//! per-point friction.
 
 use std::time::Instant;
 

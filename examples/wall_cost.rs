@@ -4,8 +4,8 @@
 //! sequential impulses; 600 steps unless given. For trying settings without a rebuild, the
 //! environment overrides the method's `SolverConfig`: `HZ` (contact hertz), `SUB` (substeps),
 //! `ITER` (iterations), `RELAX` (relax iterations), `BLOCK` (block iterations), `PUSH` (push-out
-//! speed), `TOL` (velocity tolerance), `WARM=0` (no warm start), `FRICTION=manifold` (the
-//! hybrid's manifold friction).
+//! speed), `TOL` (velocity tolerance), `WARM=0` (no warm start), `FRICTION=per_point` (the
+//! hybrid's per-point friction).
 //!
 //! ```sh
 //! cargo run --release --example wall_cost [method index] [steps]

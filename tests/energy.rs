@@ -868,8 +868,9 @@ fn energy_never_rises_jacobi() {
     random_worlds(SolverMethod::Jacobi, 0..SHORT);
 }
 
-/// The hybrid with [`FrictionModel::Manifold`]: its friction rows are each an exact minimiser
-/// of the kinetic energy along the row within its bound, so the same invariant holds.
+/// The hybrid with [`FrictionModel::Manifold`] (the default since 2026-12-07): its friction
+/// rows are each an exact minimiser of the kinetic energy along the row within its bound, so
+/// the same invariant holds.
 #[test]
 fn energy_never_rises_hybrid_manifold_friction() {
     random_worlds_with(SolverMethod::Hybrid, FrictionModel::Manifold, 0..SHORT);

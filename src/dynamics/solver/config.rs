@@ -88,16 +88,17 @@ pub enum ImpactMessages {
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum FrictionModel {
     /// Two friction rows at each contact point, each bounded by its own point's normal impulse
-    /// (Box2D's). Default.
-    #[default]
+    /// (Box2D's).
     PerPoint,
     /// Two friction rows at the manifold's centroid bounded together by the manifold's total
     /// normal impulse, and a twist row about the normal bounded by that times the points' mean
     /// distance from the centroid (Rapier's default, `FrictionModel::Simplified`): three rows
     /// for a face's four points instead of eight. The impulses are handed back to the points
-    /// (so warm starting and contact persistence are unchanged). Hybrid method only: the other
-    /// methods solve friction per point. Single-point manifolds (spheres) are per point either
-    /// way.
+    /// (each an even share of the resultant and of the twist), so contact persistence carries
+    /// them. Hybrid method only: the other methods solve friction per point. Single-point
+    /// manifolds (spheres) are per point either way. Default since 2026-12-07: uniform columns
+    /// stand longer with it (see the README's "Friction").
+    #[default]
     Manifold,
 }
 
@@ -164,7 +165,7 @@ pub struct SolverConfig {
     /// Mass splitting for Jacobi. Default true.
     pub mass_splitting: bool,
     /// How the hybrid method solves a manifold's friction. Default
-    /// [`FrictionModel::PerPoint`].
+    /// [`FrictionModel::Manifold`].
     pub friction_model: FrictionModel,
     /// Which contacts send [`Impact`](crate::Impact) messages. Default
     /// [`ImpactMessages::Impacts`].
@@ -191,7 +192,7 @@ impl Default for SolverConfig {
             linear_slop: 0.005,
             warm_start: true,
             mass_splitting: true,
-            friction_model: FrictionModel::PerPoint,
+            friction_model: FrictionModel::Manifold,
             impact_messages: ImpactMessages::Impacts,
         }
     }
