@@ -464,6 +464,17 @@ fn selected(name: &str) -> bool {
 
 /// Every case at its full length under `method` (those `STRESS_CASES` selects); fails listing
 /// every failing case.
+///
+/// Known failures of the long runs (2026-12-07, release; the short versions pass or are pinned
+/// above): the hybrid none. Sequential impulses: the 100-body 1000:1 column (a cube leaves
+/// the container at step 230, sleeping or not; before the sliding-friction fix also the
+/// friction column, 22.8 m/s against its bound of 22.6). The soft step: the 100-body column
+/// (71 m/s at step 58, pinned short too). Jacobi: the 100-body column (pinned short too) and
+/// the mixed pour (a light hull pressed through the floor at step 115; it passed at 8.1 m/s
+/// before the sliding-friction fix). Propagation: see the README's methods table. Collapses
+/// under the speed bound pass these checks, and are in the README's methods table: the
+/// friction column under sequential impulses (20.7 m/s) and the soft step (awake, 7.9 m/s),
+/// the awake wall under Jacobi (19 m/s).
 fn long(method: SolverMethod) {
     let failures: Vec<String> = CASES
         .iter()
