@@ -196,7 +196,8 @@ fn manifold_friction_warm_start_applies_what_its_rows_read() {
     // The slip stopped (0.894 N s: the centroid's `1 / K_t` is 0.4 kg, under the bound of
     // 2 N s) and the twist at its bound (1.414 N m s, see above): neither is trivial.
     assert!(
-        (force.length() - 0.89443).abs() < 1e-4 && (twist.abs() - 1.41421).abs() < 1e-4,
+        (force.length() - 0.89443).abs() < 1e-4
+            && (twist.abs() - std::f32::consts::SQRT_2).abs() < 1e-4,
         "{force} {twist}"
     );
     let cube = &mut bodies[1];
