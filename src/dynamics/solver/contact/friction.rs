@@ -190,42 +190,89 @@ pub fn solve_friction_in(v: &mut PairVelocities, c: &mut ContactConstraint) -> b
         return false;
     }
     let limit = c.friction * c.normal_impulse.max(0.0);
-    // Sticking: the two tangent rows in turn, each stopping the slip the first leaves, kept
-    // wherever neither leaves its slice of the disc (each update the minimum of the energy
-    // along its row).
-    let mut tried = *v;
     let mut impulse = c.tangent_impulse;
+    let changed = solve_plane(&*c, v, &mut impulse, limit);
+    c.tangent_impulse = impulse;
+    changed
+}
+
+/// A friction pair's two rows along the tangents of one plane, on a body pair's velocities: a
+/// contact point's ([`ContactConstraint`]) or a manifold's centroid (the hybrid's manifold
+/// friction), solved alike by [`solve_plane`].
+pub(crate) trait TangentPlane {
+    /// The relative velocity along tangent `k`.
+    fn slip(&self, v: &PairVelocities, k: usize) -> f32;
+    /// Applies impulse `delta` along tangent `k` (`-` to body A, `+` to body B).
+    fn apply(&self, v: &mut PairVelocities, k: usize, delta: f32);
+    /// The plane's inverse effective mass `K_t`, `[k00, k01, k11]`.
+    fn inverse_mass(&self) -> [f32; 3];
+}
+
+impl TangentPlane for ContactConstraint {
+    #[inline]
+    fn slip(&self, v: &PairVelocities, k: usize) -> f32 {
+        self.tangent_velocity_in(v, k)
+    }
+
+    #[inline]
+    fn apply(&self, v: &mut PairVelocities, k: usize, delta: f32) {
+        self.apply_tangent_impulse_in(v, k, delta);
+    }
+
+    #[inline]
+    fn inverse_mass(&self) -> [f32; 3] {
+        self.tangent_k
+    }
+}
+
+/// One update of a friction pair on the velocities `v`, bounded by the Coulomb disc of radius
+/// `limit`: `impulse` (the pair's accumulated impulse along its two tangents) is updated.
+/// Returns whether any velocity changed.
+///
+/// Sticking: the two tangent rows in turn, each stopping the slip the first leaves, kept
+/// wherever neither leaves its slice of the disc (each update the minimum of the energy along
+/// its row). Sliding (the rows in turn would leave the disc): the point of the disc nearest
+/// stopping the slip ([`disc_solve`]).
+#[inline]
+pub(crate) fn solve_plane(
+    plane: &impl TangentPlane,
+    v: &mut PairVelocities,
+    impulse: &mut [f32; 2],
+    limit: f32,
+) -> bool {
+    let k_t = plane.inverse_mass();
+    let mut tried = *v;
+    let mut rows = *impulse;
     let mut changed = false;
     let mut inside = true;
     for k in 0..2 {
-        let other = impulse[1 - k];
+        let other = rows[1 - k];
         let room2 = (limit * limit - other * other).max(0.0);
-        let diagonal = c.tangent_k[2 * k];
+        let diagonal = k_t[2 * k];
         let mass = if diagonal > 0.0 { 1.0 / diagonal } else { 0.0 };
-        let wanted = impulse[k] - mass * c.tangent_velocity_in(&tried, k);
+        let wanted = rows[k] - mass * plane.slip(&tried, k);
         let new = clamp_to_room(wanted, room2);
         inside &= new == wanted;
-        let delta = new - impulse[k];
+        let delta = new - rows[k];
         if delta != 0.0 {
-            impulse[k] = new;
-            c.apply_tangent_impulse_in(&mut tried, k, delta);
+            rows[k] = new;
+            plane.apply(&mut tried, k, delta);
             changed = true;
         }
     }
     if inside {
-        c.tangent_impulse = impulse;
+        *impulse = rows;
         *v = tried;
         return changed;
     }
-    // Sliding: the point of the disc nearest stopping the slip.
-    let slip = [c.tangent_velocity_in(v, 0), c.tangent_velocity_in(v, 1)];
-    let new = disc_solve(c.tangent_impulse, slip, c.tangent_k, limit);
+    let slip = [plane.slip(v, 0), plane.slip(v, 1)];
+    let new = disc_solve(*impulse, slip, k_t, limit);
     let mut changed = false;
     for (k, &new) in new.iter().enumerate() {
-        let delta = new - c.tangent_impulse[k];
+        let delta = new - impulse[k];
         if delta != 0.0 {
-            c.tangent_impulse[k] = new;
-            c.apply_tangent_impulse_in(v, k, delta);
+            impulse[k] = new;
+            plane.apply(v, k, delta);
             changed = true;
         }
     }

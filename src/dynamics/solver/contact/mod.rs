@@ -10,7 +10,7 @@ use crate::impulse::{apply_row_impulse, row_inverse_mass};
 
 mod friction;
 
-pub(crate) use friction::{clamp_to_room, disc_solve};
+pub(crate) use friction::{TangentPlane, solve_plane};
 pub use friction::{solve_friction, solve_friction_in};
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.

@@ -1,7 +1,7 @@
 //! Contact rows against the seed formula, and the stick impulse against its closed form and bounds.
 
+use super::friction::{clamp_to_room, disc_solve};
 use super::*;
-use super::{clamp_to_room, disc_solve};
 use crate::impulse::{ImpulseBody, inverse_effective_mass};
 use bevy::math::{BVec3, Mat3};
 

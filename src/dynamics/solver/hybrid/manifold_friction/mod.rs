@@ -2,7 +2,7 @@
 //! centroid of its points and a twist row about its normal.
 
 use super::*;
-use crate::dynamics::solver::contact::{clamp_to_room, disc_solve};
+use crate::dynamics::solver::contact::{TangentPlane, solve_plane};
 
 /// A manifold's friction rows for [`FrictionModel::Manifold`], derived once a step (and again
 /// after a substep for a body whose inertia turned, as the point rows are, see
@@ -196,10 +196,10 @@ impl ManifoldFriction {
         v.b.angular += delta * self.turn_b[k];
     }
 
-    /// The pair at the centroid, as a point's pair is solved (`solve_friction`): the two rows
-    /// in turn where they stay inside the disc of radius `limit`, else the point of the disc
-    /// nearest stopping the slip (`disc_solve`). `force` is the resultant, updated. Returns
-    /// whether any velocity changed.
+    /// The pair at the centroid, as a point's pair is solved ([`solve_plane`]: the two rows in
+    /// turn where they stay inside the disc of radius `limit`, else the point of the disc
+    /// nearest stopping the slip). `force` is the resultant, updated. Returns whether any
+    /// velocity changed.
     fn solve_pair(
         &self,
         v: &mut PairVelocities,
@@ -207,42 +207,38 @@ impl ManifoldFriction {
         tangents: [Vec3; 2],
         limit: f32,
     ) -> bool {
-        let mut tried = *v;
-        let mut rows = *force;
-        let mut changed = false;
-        let mut inside = true;
-        for (k, t) in tangents.into_iter().enumerate() {
-            let other = rows[1 - k];
-            let room2 = (limit * limit - other * other).max(0.0);
-            let diagonal = self.pair[2 * k];
-            let mass = if diagonal > 0.0 { 1.0 / diagonal } else { 0.0 };
-            let wanted = rows[k] - mass * self.slip(&tried, t);
-            let new = clamp_to_room(wanted, room2);
-            inside &= new == wanted;
-            let delta = new - rows[k];
-            if delta != 0.0 {
-                rows[k] = new;
-                self.apply(&mut tried, k, t, delta);
-                changed = true;
-            }
-        }
-        if inside {
-            *force = rows;
-            *v = tried;
-            return changed;
-        }
-        let slip = [self.slip(v, tangents[0]), self.slip(v, tangents[1])];
-        let new = disc_solve(*force, slip, self.pair, limit);
-        let mut changed = false;
-        for (k, t) in tangents.into_iter().enumerate() {
-            let delta = new[k] - force[k];
-            if delta != 0.0 {
-                force[k] = new[k];
-                self.apply(v, k, t, delta);
-                changed = true;
-            }
-        }
-        changed
+        solve_plane(
+            &Centroid {
+                rows: self,
+                tangents,
+            },
+            v,
+            force,
+            limit,
+        )
+    }
+}
+
+/// A manifold's friction pair at its centroid, as a [`TangentPlane`].
+struct Centroid<'a> {
+    rows: &'a ManifoldFriction,
+    tangents: [Vec3; 2],
+}
+
+impl TangentPlane for Centroid<'_> {
+    #[inline]
+    fn slip(&self, v: &PairVelocities, k: usize) -> f32 {
+        self.rows.slip(v, self.tangents[k])
+    }
+
+    #[inline]
+    fn apply(&self, v: &mut PairVelocities, k: usize, delta: f32) {
+        self.rows.apply(v, k, self.tangents[k], delta);
+    }
+
+    #[inline]
+    fn inverse_mass(&self) -> [f32; 3] {
+        self.rows.pair
     }
 }
 
