@@ -250,20 +250,30 @@ fn in_plane(d: Vec3, n: Vec3) -> Vec3 {
 
 /// Each block's [`ManifoldFriction`] into `rows` (one per block, in order), for
 /// [`FrictionModel::Manifold`]; `rows` is emptied otherwise (every block then per point).
+///
+/// A block solved per point (one point, or no friction) drops the twist shares its points
+/// carry (from a step when its manifold had more points). Why: no row of it reads them, so
+/// the warm start would apply them every substep, step after step, and nothing would ever
+/// change them.
 pub(crate) fn manifold_frictions(
     model: FrictionModel,
     bodies: &[SolverBody],
-    contacts: &[ContactConstraint],
+    contacts: &mut [ContactConstraint],
     blocks: &[Block],
     rows: &mut Vec<ManifoldFriction>,
 ) {
     rows.clear();
     if model == FrictionModel::Manifold {
-        rows.extend(
-            blocks
-                .iter()
-                .map(|b| ManifoldFriction::new(bodies, &contacts[b.range.clone()])),
-        );
+        for block in blocks {
+            let group = &mut contacts[block.range.clone()];
+            let friction = ManifoldFriction::new(bodies, group);
+            if !friction.ready {
+                for c in group.iter_mut() {
+                    c.twist_impulse = 0.0;
+                }
+            }
+            rows.push(friction);
+        }
     }
 }
 

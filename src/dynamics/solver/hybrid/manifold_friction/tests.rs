@@ -221,3 +221,39 @@ fn manifold_friction_warm_start_applies_what_its_rows_read() {
         cube.angular_velocity
     );
 }
+
+/// A block solved per point drops the twist shares its points carry, and a manifold keeps
+/// them: here the cube's four corners carry shares of 0.1 N m s, and the blocks are one
+/// corner alone (as when its manifold has shrunk to one point) and the other three. Carried
+/// by the lone corner, the share would be warm-started every substep, step after step, and
+/// never updated (no row of a point reads it): the cube would be spun up without end.
+#[test]
+fn a_block_solved_per_point_drops_its_twist() {
+    let (bodies, mut contacts) = cube_on_ground(0.5, 1.0, Vec3::ZERO, Vec3::ZERO);
+    for c in &mut contacts {
+        c.twist_impulse = 0.1;
+    }
+    let block = |range: std::ops::Range<usize>| Block {
+        range,
+        support: Support::A,
+        hold: 1.0,
+        push: Vec3::Y,
+        load: 1.0,
+        lever: 0.5,
+        spread: 0.5,
+        touching: true,
+        carries_released: false,
+    };
+    let blocks = [block(0..1), block(1..4)];
+    let mut rows = Vec::new();
+    manifold_frictions(
+        FrictionModel::Manifold,
+        &bodies,
+        &mut contacts,
+        &blocks,
+        &mut rows,
+    );
+    assert!(!rows[0].ready && rows[1].ready);
+    let twists: Vec<f32> = contacts.iter().map(|c| c.twist_impulse).collect();
+    assert_eq!(twists, [0.0, 0.1, 0.1, 0.1]);
+}
