@@ -41,8 +41,6 @@ pub struct ManifoldFriction {
     twist_mass: f32,
     /// The points' mean distance from the centroid in the tangent plane, m.
     radius: f32,
-    /// The sum of the points' squared distances from the centroid in the tangent plane, m^2.
-    spread: f32,
 }
 
 impl ManifoldFriction {
@@ -62,7 +60,6 @@ impl ManifoldFriction {
         for c in group {
             let d = in_plane(c.point - rows.center, n);
             rows.radius += d.length() / count;
-            rows.spread += d.length_squared();
         }
         let (a, b) = (&bodies[first.body_a], &bodies[first.body_b]);
         rows.arms = [rows.center - a.position, rows.center - b.position];
@@ -99,7 +96,7 @@ impl ManifoldFriction {
         self.turn_a[2] = a.inverse_inertia * n;
         self.turn_b[2] = b.inverse_inertia * n;
         let k_twist = n.dot(self.turn_a[2]) + n.dot(self.turn_b[2]);
-        self.twist_mass = if k_twist > 0.0 && self.spread > 0.0 {
+        self.twist_mass = if k_twist > 0.0 && self.radius > 0.0 {
             1.0 / k_twist
         } else {
             0.0
