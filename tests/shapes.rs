@@ -584,6 +584,27 @@ fn collider_constructor_hierarchy_builds_the_descendants() {
     assert_eq!(world.get::<Density>(post), Some(&Density(500.0)));
 }
 
+/// A 1 kg cube of half extent `half` resting on the ground (friction 0.5, g 10, 60 Hz) under
+/// the friction `model`, moving as `motion` says: the friction tests' scene.
+fn cube_on_ground_with(model: FrictionModel, half: f32, motion: impl Bundle) -> (App, Entity) {
+    let mut app = headless_app(60.0);
+    app.insert_resource(Gravity(Vec3::new(0.0, -10.0, 0.0)));
+    app.insert_resource(SolverConfig {
+        friction_model: model,
+        ..default()
+    });
+    scenes::ground(app.world_mut());
+    let cube = app
+        .world_mut()
+        .spawn((
+            scenes::cuboid(Vec3::splat(half), 1.0, Vec3::new(0.0, half, 0.0)),
+            motion,
+            Friction(0.5),
+        ))
+        .id();
+    (app, cube)
+}
+
 /// Friction is isotropic: a cube sliding on the floor at 2 m/s in any direction of the plane
 /// slides straight and stops after `v^2 / (2 mu g)` (0.4 m at mu 0.5, g 10), under either
 /// friction model. Tolerances: 2 % of the distance (as the combine test above) and 1 % of it
@@ -594,21 +615,7 @@ fn friction_slide_is_straight_in_every_direction() {
     for model in [FrictionModel::PerPoint, FrictionModel::Manifold] {
         for degrees in [0.0f32, 30.0, 45.0, 60.0, 135.0, 200.0] {
             let dir = Vec3::new(degrees.to_radians().cos(), 0.0, degrees.to_radians().sin());
-            let mut app = headless_app(60.0);
-            app.insert_resource(Gravity(Vec3::new(0.0, -10.0, 0.0)));
-            app.insert_resource(SolverConfig {
-                friction_model: model,
-                ..default()
-            });
-            scenes::ground(app.world_mut());
-            let cube = app
-                .world_mut()
-                .spawn((
-                    scenes::cuboid(Vec3::splat(0.1), 1.0, Vec3::new(0.0, 0.1, 0.0)),
-                    LinearVelocity(2.0 * dir),
-                    Friction(0.5),
-                ))
-                .id();
+            let (mut app, cube) = cube_on_ground_with(model, 0.1, LinearVelocity(2.0 * dir));
             run_steps(&mut app, 120);
             let end = position(&app, cube);
             let along = end.dot(dir);
@@ -632,21 +639,8 @@ fn friction_slide_is_straight_in_every_direction() {
 #[test]
 fn friction_twist_stops_a_spinning_cube_at_the_closed_form_rate() {
     for model in [FrictionModel::PerPoint, FrictionModel::Manifold] {
-        let mut app = headless_app(60.0);
-        app.insert_resource(Gravity(Vec3::new(0.0, -10.0, 0.0)));
-        app.insert_resource(SolverConfig {
-            friction_model: model,
-            ..default()
-        });
-        scenes::ground(app.world_mut());
-        let cube = app
-            .world_mut()
-            .spawn((
-                scenes::cuboid(Vec3::splat(0.5), 1.0, Vec3::new(0.0, 0.5, 0.0)),
-                AngularVelocity(Vec3::new(0.0, 3.0, 0.0)),
-                Friction(0.5),
-            ))
-            .id();
+        let (mut app, cube) =
+            cube_on_ground_with(model, 0.5, AngularVelocity(Vec3::new(0.0, 3.0, 0.0)));
         run_steps(&mut app, 6);
         let spin = app.world().get::<AngularVelocity>(cube).unwrap().0;
         let expected = 3.0 - 0.5 * 10.0 * 0.5f32.sqrt() * 6.0 * 0.1;

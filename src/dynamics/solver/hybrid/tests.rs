@@ -1,5 +1,6 @@
 //! Unit tests of the hybrid method's resting phase.
 
+use super::super::body::cube_over_ground;
 use super::super::contact::prepare_contacts;
 use super::super::soft_step::soft_sweep;
 use super::*;
@@ -291,18 +292,8 @@ fn soft_tilt_stands_by_size_against_lever() {
 }
 
 fn box_on_ground(corners: &[Vec3]) -> (Vec<SolverBody>, Vec<ContactConstraint>) {
-    use bevy::math::{BVec3, Mat3, Quat};
-    let bodies = vec![
-        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
-        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.49, 0.0), Quat::IDENTITY)
-            .with_mass(
-                1.0,
-                Mat3::from_diagonal(Vec3::splat(6.0)),
-                true,
-                BVec3::FALSE,
-            )
-            .with_velocity(Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.3, 0.0, -0.2)),
-    ];
+    let bodies =
+        cube_over_ground(0.49, Vec3::new(0.0, -0.5, 0.0), Vec3::new(0.3, 0.0, -0.2)).to_vec();
     let mut contacts: Vec<_> = corners
         .iter()
         .map(|&p| ContactConstraint::new(0, 1, p, Vec3::Y, -0.01, 0.0, 0.0))

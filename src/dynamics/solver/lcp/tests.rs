@@ -13,20 +13,10 @@ use super::*;
 /// within 1e-6 (f32 rounding of applying impulses of order 0.3 to velocities of order 1).
 #[test]
 fn flat_box_corners_share_the_landing() {
-    use crate::dynamics::solver::body::Motion;
+    use crate::dynamics::solver::body::cube_over_ground;
     use crate::dynamics::solver::contact::prepare_contacts;
-    use bevy::math::{BVec3, Mat3, Quat, Vec3};
-    let mut bodies = [
-        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
-        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.5, 0.0), Quat::IDENTITY)
-            .with_mass(
-                1.0,
-                Mat3::from_diagonal(Vec3::splat(6.0)),
-                true,
-                BVec3::FALSE,
-            )
-            .with_velocity(Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.5, 0.0, 0.0)),
-    ];
+    use bevy::math::Vec3;
+    let mut bodies = cube_over_ground(0.5, Vec3::new(0.0, -1.0, 0.0), Vec3::new(0.5, 0.0, 0.0));
     let corners = [(-0.5f32, -0.5f32), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
     let mut contacts = corners
         .map(|(x, z)| ContactConstraint::new(0, 1, Vec3::new(x, 0.0, z), Vec3::Y, 0.0, 0.0, 0.0));

@@ -1,7 +1,7 @@
 use bevy::math::{BVec3, Mat3, Quat};
 
 use super::*;
-use crate::dynamics::solver::body::kinetic_energy;
+use crate::dynamics::solver::body::{cube_over_ground, kinetic_energy};
 use crate::dynamics::solver::contact::tests::{random_vec, uniform};
 use crate::dynamics::solver::contact::{prepare_contacts, warm_start};
 use crate::dynamics::solver::ledger::RestitutionLedger;
@@ -15,17 +15,7 @@ fn cube_on_ground(
     v: Vec3,
     w: Vec3,
 ) -> (Vec<SolverBody>, Vec<ContactConstraint>) {
-    let bodies = vec![
-        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
-        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.5, 0.0), Quat::IDENTITY)
-            .with_mass(
-                1.0,
-                Mat3::from_diagonal(Vec3::splat(6.0)),
-                true,
-                BVec3::FALSE,
-            )
-            .with_velocity(v, w),
-    ];
+    let bodies = cube_over_ground(0.5, v, w).to_vec();
     let mut contacts: Vec<_> = [(0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)]
         .iter()
         .map(|&(x, z)| ContactConstraint::new(0, 1, Vec3::new(x, 0.0, z), Vec3::Y, 0.0, 0.0, mu))
