@@ -493,21 +493,27 @@ pub(crate) fn kinetic_energy(bodies: &[SolverBody]) -> f64 {
         .sum()
 }
 
-/// Static ground (body 0) and a 1 kg cube of side 1 (`I^-1 = 6` about every axis, body 1)
-/// with its centre `height` above it, moving at `v` and spinning at `w`: the solver tests'
-/// cube on the ground.
+/// A 1 kg cube of side 1 (`I^-1 = 6` about every axis) with its centre `height` above the
+/// origin, moving at `v` and spinning at `w`: the solver tests' unit cube.
+#[cfg(test)]
+pub(crate) fn unit_cube(height: f32, v: Vec3, w: Vec3) -> SolverBody {
+    SolverBody::new(Motion::Dynamic, Vec3::new(0.0, height, 0.0), Quat::IDENTITY)
+        .with_mass(
+            1.0,
+            Mat3::from_diagonal(Vec3::splat(6.0)),
+            true,
+            BVec3::FALSE,
+        )
+        .with_velocity(v, w)
+}
+
+/// Static ground (body 0) and a [`unit_cube`] (body 1) with its centre `height` above it:
+/// the solver tests' cube on the ground.
 #[cfg(test)]
 pub(crate) fn cube_over_ground(height: f32, v: Vec3, w: Vec3) -> [SolverBody; 2] {
     [
         SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
-        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, height, 0.0), Quat::IDENTITY)
-            .with_mass(
-                1.0,
-                Mat3::from_diagonal(Vec3::splat(6.0)),
-                true,
-                BVec3::FALSE,
-            )
-            .with_velocity(v, w),
+        unit_cube(height, v, w),
     ]
 }
 

@@ -415,19 +415,8 @@ fn manifold_block_is_rigid_in_tilt() {
 /// 1e-2 rad in one step (corners 1e-10 m apart, at 1 mm 2 ulps).
 #[test]
 fn manifold_block_corner_a_hair_apart_sinks_with_the_rest() {
-    use bevy::math::{BVec3, Mat3, Quat};
     let soft = Softness::new(30.0, 10.0, 1.0 / 240.0);
-    let mut bodies = vec![
-        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
-        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 0.5, 0.0), Quat::IDENTITY)
-            .with_mass(
-                1.0,
-                Mat3::from_diagonal(Vec3::splat(6.0)),
-                true,
-                BVec3::FALSE,
-            )
-            .with_velocity(Vec3::new(0.0, -9.81 / 240.0, 0.0), Vec3::ZERO),
-    ];
+    let mut bodies = cube_over_ground(0.5, Vec3::new(0.0, -9.81 / 240.0, 0.0), Vec3::ZERO).to_vec();
     let gap = 1e-6;
     let corners = [
         (0.5, 0.5, gap),

@@ -1,6 +1,7 @@
 //! The propagation pass on small scenes with known answers.
 
 use super::*;
+use crate::dynamics::solver::body::{cube_over_ground, unit_cube};
 use crate::dynamics::solver::contact::prepare_contacts;
 use bevy::math::{BVec3, Mat3, Quat};
 
@@ -37,16 +38,7 @@ fn params() -> Propagation {
 /// 1 m/s, touching each other and the ground, with the upper cube's speculative contact
 /// with the ground 1 m below it first; one group a contact.
 fn touching_stack() -> (Vec<SolverBody>, Vec<ContactConstraint>, Vec<Range<usize>>) {
-    let cube = |y: f32| {
-        SolverBody::new(Motion::Dynamic, Vec3::new(0.0, y, 0.0), Quat::IDENTITY)
-            .with_mass(
-                1.0,
-                Mat3::from_diagonal(Vec3::splat(6.0)),
-                true,
-                BVec3::FALSE,
-            )
-            .with_velocity(Vec3::new(0.0, -1.0, 0.0), Vec3::ZERO)
-    };
+    let cube = |y: f32| unit_cube(y, Vec3::new(0.0, -1.0, 0.0), Vec3::ZERO);
     let bodies = vec![
         SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
         cube(0.5),
@@ -278,18 +270,7 @@ fn heavy_on_light_on_ground_stops_in_one_sweep() {
 /// it was picked up again every sweep until the bound.)
 #[test]
 fn approach_is_judged_where_the_event_solves_it() {
-    let spinning = SolverBody::new(Motion::Dynamic, Vec3::new(0.0, 1.0, 0.0), Quat::IDENTITY)
-        .with_mass(
-            1.0,
-            Mat3::from_diagonal(Vec3::splat(6.0)),
-            true,
-            BVec3::FALSE,
-        )
-        .with_velocity(Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0));
-    let mut bodies = vec![
-        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
-        spinning,
-    ];
+    let mut bodies = cube_over_ground(1.0, Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0)).to_vec();
     let corner = Vec3::new(0.5, 0.5, 0.0);
     let mut contacts = [ContactConstraint::new(0, 1, corner, Vec3::Y, 0.5, 0.0, 0.0)];
     prepare_contacts(&bodies, &mut contacts);
