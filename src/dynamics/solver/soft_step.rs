@@ -9,7 +9,8 @@ use crate::impulse::row_impulse;
 use super::body::{SolverBody, integrate_positions_owing, integrate_velocities};
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::hybrid::{
-    Block, BlockRow, ManifoldFriction, ManifoldSolve, manifold_frictions, manifold_sweep,
+    Block, BlockRow, ManifoldFriction, ManifoldSolve, Transmitted, carried_scale, held_warm_start,
+    manifold_frictions, manifold_sweep,
 };
 use super::iterative::{Settling, Sweep};
 use super::ledger::RestitutionLedger;
@@ -31,6 +32,8 @@ pub struct SoftScratch {
     before: Vec<Vec3>,
     /// The restitution pass's rows' impulses before their bounce (see [`apply_restitution`]).
     resting: Vec<f32>,
+    /// What each of the hybrid's blocks carries beyond its own impulse (see [`Transmitted`]).
+    transmitted: Transmitted,
 }
 
 impl SoftScratch {
@@ -125,8 +128,10 @@ pub(super) fn soft_substeps(
         rows,
         frictions,
         before,
+        transmitted,
         ..
     } = scratch;
+    transmitted.clear();
     settling.friction_changed = false;
     if let Resting::Manifolds(blocks) = resting {
         manifold_frictions(config.friction_model, bodies, contacts, blocks, frictions);
@@ -134,7 +139,7 @@ pub(super) fn soft_substeps(
     let mut sweep = |bodies: &mut [SolverBody],
                      contacts: &mut [ContactConstraint],
                      settling: &mut Settling,
-                     frictions: &[ManifoldFriction],
+                     friction: (&[ManifoldFriction], &Transmitted),
                      soft: Option<Softness>,
                      leave_impacts: Option<f32>| match resting {
         Resting::Manifolds(blocks) => {
@@ -147,7 +152,7 @@ pub(super) fn soft_substeps(
                 tolerance: config.velocity_tolerance,
                 tilt_stiffness,
             };
-            manifold_sweep(bodies, contacts, blocks, frictions, &solve, settling, rows)
+            manifold_sweep(bodies, contacts, blocks, friction, &solve, settling, rows)
         }
         Resting::Rows | Resting::Idle => soft_sweep(
             bodies,
@@ -171,9 +176,20 @@ pub(super) fn soft_substeps(
         }
         integrate_velocities(bodies, gravity, h);
         if !skip {
-            warm_start(bodies, contacts, &mut settling.ledger);
+            match resting {
+                // The hybrid's held supports take no part of the impulses they pass on, which
+                // are carried down to the friction bounds beneath (see `held_warm_start`).
+                Resting::Manifolds(blocks) => {
+                    transmitted.compute(bodies, contacts, blocks);
+                    held_warm_start(bodies, contacts, blocks);
+                }
+                Resting::Rows | Resting::Idle => {
+                    warm_start(bodies, contacts, &mut settling.ledger);
+                }
+            }
             solve_rows(config.iterations.max(1), stats, || {
-                sweep(bodies, contacts, settling, frictions, Some(soft), None).done(tolerance)
+                let friction = (&frictions[..], &*transmitted);
+                sweep(bodies, contacts, settling, friction, Some(soft), None).done(tolerance)
             });
         }
         if settling.ledger.is_open() {
@@ -194,10 +210,32 @@ pub(super) fn soft_substeps(
             let leave_impacts =
                 (hybrid && substep + 1 == n).then_some(config.restitution_threshold);
             relax(config.relax_iterations, stats, || {
-                sweep(bodies, contacts, settling, frictions, None, leave_impacts).done(tolerance)
+                let friction = (&frictions[..], &*transmitted);
+                sweep(bodies, contacts, settling, friction, None, leave_impacts).done(tolerance)
             });
         }
         store_impulses(contacts);
+        if let Resting::Manifolds(blocks) = resting {
+            store_carried(contacts, blocks, transmitted);
+        }
+    }
+}
+
+/// Adds to the impulse each of the hybrid's rows took over the step its share of what its
+/// block carried in the substep (see [`Transmitted`]): a row reports the load that rests on
+/// it, the weight of a whole column at its foot.
+fn store_carried(contacts: &mut [ContactConstraint], blocks: &[Block], transmitted: &Transmitted) {
+    for (k, block) in blocks.iter().enumerate() {
+        let carried = transmitted.of(k);
+        if carried <= 0.0 {
+            continue;
+        }
+        let rows = &mut contacts[block.range.clone()];
+        let own = rows.iter().map(|c| c.normal_impulse.max(0.0)).sum::<f32>();
+        let scale = carried_scale(own, carried) - 1.0;
+        for c in rows.iter_mut() {
+            c.total_impulse += c.normal_impulse.max(0.0) * scale;
+        }
     }
 }
 

@@ -186,10 +186,22 @@ fn friction_idle(c: &ContactConstraint) -> bool {
 /// [`PairVelocities`]).
 #[inline]
 pub fn solve_friction_in(v: &mut PairVelocities, c: &mut ContactConstraint) -> bool {
+    solve_friction_scaled_in(v, c, 1.0)
+}
+
+/// [`solve_friction_in`] with the disc's radius `scale` times the row's own: the hybrid's
+/// held chains, whose rows bear more than their own normal impulse (see
+/// [`Transmitted`](crate::dynamics::solver::hybrid::Transmitted)).
+#[inline]
+pub fn solve_friction_scaled_in(
+    v: &mut PairVelocities,
+    c: &mut ContactConstraint,
+    scale: f32,
+) -> bool {
     if friction_idle(c) {
         return false;
     }
-    let limit = c.friction * c.normal_impulse.max(0.0);
+    let limit = c.friction * c.normal_impulse.max(0.0) * scale;
     let mut impulse = c.tangent_impulse;
     let changed = solve_plane(&*c, v, &mut impulse, limit);
     c.tangent_impulse = impulse;

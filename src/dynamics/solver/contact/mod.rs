@@ -11,7 +11,7 @@ use crate::impulse::{apply_row_impulse, row_inverse_mass};
 mod friction;
 
 pub(crate) use friction::{TangentPlane, solve_plane};
-pub use friction::{solve_friction, solve_friction_in};
+pub use friction::{solve_friction, solve_friction_in, solve_friction_scaled_in};
 
 /// One contact point between bodies `body_a` and `body_b`, with its normal pointing from A to B.
 /// Built by the narrow phase with [`ContactConstraint::new`], completed by [`prepare_contacts`].
@@ -382,21 +382,36 @@ pub fn warm_start(
                 c.normal_impulse,
             );
         }
-        if c.friction > 0.0 {
-            for k in 0..2 {
-                if c.tangent_impulse[k] != 0.0 {
-                    c.apply_tangent_impulse_in(v, k, c.tangent_impulse[k]);
-                }
-            }
-            if c.twist_impulse != 0.0 {
-                let twist = c.twist_impulse * c.normal;
-                v.a.angular -= bodies[c.body_a].inverse_inertia * twist;
-                v.b.angular += bodies[c.body_b].inverse_inertia * twist;
-            }
-        }
+        c.warm_start_friction_in(bodies, v);
     }
     if let Some(((a, b), v)) = held {
         v.store(bodies, a, b);
+    }
+}
+
+impl ContactConstraint {
+    /// Applies the row's accumulated friction (its tangent impulses and its twist share) to its
+    /// bodies' velocities in `v`, as a warm start does; `bodies` gives their inverse inertias.
+    /// Returns whether it applied any.
+    #[inline]
+    pub fn warm_start_friction_in(&self, bodies: &[SolverBody], v: &mut PairVelocities) -> bool {
+        if self.friction <= 0.0 {
+            return false;
+        }
+        let mut applied = false;
+        for k in 0..2 {
+            if self.tangent_impulse[k] != 0.0 {
+                self.apply_tangent_impulse_in(v, k, self.tangent_impulse[k]);
+                applied = true;
+            }
+        }
+        if self.twist_impulse != 0.0 {
+            let twist = self.twist_impulse * self.normal;
+            v.a.angular -= bodies[self.body_a].inverse_inertia * twist;
+            v.b.angular += bodies[self.body_b].inverse_inertia * twist;
+            applied = true;
+        }
+        applied
     }
 }
 

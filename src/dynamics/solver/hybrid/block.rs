@@ -68,8 +68,9 @@ pub struct Block {
     /// do not take, `n - s P(n)` in `support_holds`' terms. Its component along the normal is
     /// `1 - hold`. Unused without a support.
     pub push: Vec3,
-    /// The mass this manifold carries, kg: its supported body and that body's share of
-    /// everything it carries in turn (see `shock_order`). 0 for a manifold
+    /// The mass this manifold's own impulse bears, kg: its supported body and that body's
+    /// share of everything that presses on it in turn, that is, of all it carries except what
+    /// passes on through it (see `carried_loads` and [`Block::passes_on`]). 0 for a manifold
     /// with no support, whose stiffness is then set by its own effective mass.
     pub load: f32,
     /// How high the centre of mass of what it carries stands above its centroid, along its
@@ -86,6 +87,9 @@ pub struct Block {
     /// above that body comes through two-body soft rows, not a held chain (see
     /// [`manifold_sweep`] on which manifolds with friction keep a rigid tilt).
     pub carries_released: bool,
+    /// Its normal impulse is passed on through its support, not applied to it (see
+    /// [`held_warm_start`] and [`Transmitted`]; set by `mark_passing_on`).
+    pub passes_on: bool,
 }
 
 impl Block {

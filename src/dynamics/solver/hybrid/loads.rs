@@ -4,9 +4,11 @@ use super::*;
 use crate::dynamics::solver::refill;
 
 /// Sets each supported block's [`Block::load`]: the mass of its upper body plus everything that
-/// body carries, shared equally among the body's supports. `blocks` must be in `shock_order`'s
-/// order (ascending lower level), so that walking it backwards visits every block a body
-/// supports before the blocks that support it.
+/// presses on that body, shared equally among the body's supports; what a block passes on
+/// through its support ([`Block::passes_on`]) does not press on the support (its warm start
+/// leaves it out, see [`held_warm_start`]), so it counts only for the supports' levers. `blocks`
+/// must be in `shock_order`'s order (ascending lower level), so that walking it backwards
+/// visits every block a body supports before the blocks that support it.
 ///
 /// Why: a soft manifold sinks by `W K / (2 pi f)^2` under a load `W`, `K` being its inverse
 /// effective mass in the soft step. With `K` the manifold's own, the weight piles up: a column
@@ -14,7 +16,9 @@ use crate::dynamics::solver::refill;
 /// box under a 1000 times heavier one by 28 cm, deep enough for the contact normals to turn
 /// and squeeze it out. Setting `K = 1 / load` (never softer than the manifold's own `K`) makes
 /// every supporting contact sink by the same `g / (2 pi f)^2`, 0.28 mm at 30 Hz, whatever rests
-/// on it: 5.5 mm for the 20-cube column, 0.28 mm under the 1000:1 pair. Only the
+/// on it: 5.5 mm for the 20-cube column, 0.28 mm under the 1000:1 pair. (With the loads passed
+/// on, each block of a column with friction bears its upper cube only, and its own impulse is
+/// that cube's weight: the same sink.) Only the
 /// regularisation changes, and with the support held fixed the stiffer block still converges
 /// in one pass: its only free body is the supported one.
 pub(super) fn carried_loads(
@@ -25,6 +29,7 @@ pub(super) fn carried_loads(
 ) {
     let LoadScratch {
         load,
+        borne,
         moment,
         supports,
     } = scratch;
@@ -38,6 +43,8 @@ pub(super) fn carried_loads(
     };
     load.clear();
     load.extend((0..bodies.len()).map(mass));
+    borne.clear();
+    borne.extend_from_slice(load);
     // The mass-weighted sum of the positions of what each body carries (itself included), for
     // each block's lever.
     moment.clear();
@@ -57,13 +64,16 @@ pub(super) fn carried_loads(
                 (block.lever, block.spread) = lever(&contacts[block.range.clone()], upper, center);
             }
             if !block.touching {
-                block.load = load[upper];
+                block.load = borne[upper];
                 continue;
             }
             let fraction = 1.0 / supports[upper] as f32;
             let share = load[upper] * fraction;
-            block.load = share;
+            block.load = borne[upper] * fraction;
             if bodies[lower].motion == Motion::Dynamic {
+                if !block.passes_on {
+                    borne[lower] += block.load;
+                }
                 load[lower] += share;
                 let carried = moment[upper] * fraction;
                 moment[lower] += carried;
@@ -77,6 +87,8 @@ pub(super) fn carried_loads(
 pub(super) struct LoadScratch {
     /// The mass each body carries, itself included.
     load: Vec<f32>,
+    /// The part of it that presses on the body (see [`Block::load`]).
+    borne: Vec<f32>,
     /// The mass-weighted sum of the positions of what each body carries.
     moment: Vec<Vec3>,
     /// Each body's touching supports.

@@ -9,7 +9,7 @@ use std::ops::Range;
 use bevy::prelude::*;
 
 use super::body::{Motion, PairVelocities, SolverBody};
-use super::contact::{ContactConstraint, solve_friction_in};
+use super::contact::{ContactConstraint, solve_friction_scaled_in};
 use super::iterative::{Settling, Sweep};
 use super::propagation::{PropagationScratch, propagate_with};
 use super::soft_step::{Resting, SoftScratch, Softness, soft_substeps};
@@ -26,6 +26,7 @@ mod support;
 mod sweep;
 #[cfg(test)]
 mod tests;
+mod transmit;
 
 pub use block::*;
 use delassus::*;
@@ -35,6 +36,7 @@ use order::*;
 use row::*;
 use support::*;
 pub use sweep::*;
+pub use transmit::*;
 
 /// The resting phase's buffers, kept from step to step (in [`SolverScratch`](super::SolverScratch)):
 /// their contents are rebuilt every step; only their memory is reused.

@@ -35,6 +35,10 @@ use crate::dynamics::solver::rows::CompressedRows;
 /// `lambda_n - lambda_0`, a bounded amount rather than a drift, and only in islands that touch a
 /// static or kinematic body (which take momentum anyway). In an island that touches none, every
 /// body has the same level and every manifold is solved two-body, conserving momentum exactly.
+/// A block with friction whose support is held wholly ([`Block::passes_on`]) is the exception:
+/// its support takes none of the block's normal impulse, which is carried down the chain to
+/// the friction bounds beneath instead (see [`held_warm_start`]: a light support handed the
+/// load of a heavy body a substep late was launched by it).
 ///
 /// Without a consistent partition of `contacts` into `manifolds` (a caller of [`step`](crate::dynamics::solver::step) may pass
 /// none, or ranges that mix body pairs), each contact is its own block. The blocks are written into `blocks` (its earlier
@@ -56,6 +60,7 @@ pub(super) fn shock_order(
         supports,
         released,
         carrying,
+        on_released,
         holds,
         loads,
     } = scratch;
@@ -125,12 +130,14 @@ pub(super) fn shock_order(
         spread: 0.0,
         touching: touching[k as usize],
         carries_released: false,
+        passes_on: false,
     }));
     // Which blocks are released is known before the holds: `support_holds` then skips the
     // holds that no held block depends on.
     frictional_groups(bodies.len(), contacts, blocks, supports, released);
     support_holds(bodies, contacts, blocks, touch, released, holds);
     mark_carrying_released(bodies.len(), contacts, blocks, released, carrying);
+    mark_passing_on(bodies, contacts, blocks, released, on_released);
     release_frictional_groups(blocks, released);
     carried_loads(bodies, contacts, blocks, loads);
 }
@@ -155,6 +162,8 @@ pub(super) struct OrderScratch {
     released: Vec<bool>,
     /// Each body carries a released block ([`mark_carrying_released`]).
     carrying: Vec<bool>,
+    /// Each body rests on a released block ([`mark_passing_on`]).
+    on_released: Vec<bool>,
     /// [`support_holds`]' buffers.
     holds: HoldScratch,
     /// [`carried_loads`]' buffers.

@@ -82,16 +82,16 @@ use super::*;
 /// base-20 wall sway 3 mm out of its plane, still moving after 30 s (point by point: 0.1 mm),
 /// at 45 % more cost.
 ///
-/// Left failing, where masses alternate and in columns of 50 (20 s, measured 2026-12-07): 20
-/// cubes of 1 kg and 10 kg drift 0.40 m at 60 Hz (2 mm point by point) and fall at 30 Hz; 10
-/// of 1 kg and 0.01 kg fall after 4 s at 30 Hz and 16 s at 60 Hz, gaining 12-40 J (17-91 J
-/// within 10 s point by point); 50 cubes drift 5.6 m at 60 Hz and 0.32 m at 120 Hz. These runs
-/// turn on rounding: the same iterations without `Delassus`' projection of the biases, or
-/// dividing in place of its reciprocal, moved each of them (50 cubes at 60 Hz: 75 mm on the
-/// bodies, 2.4 m and 0.40 m in velocity space). Uniform columns of 18-30 cubes at 30 and 60 Hz
-/// all stand (42 of 42 within 0.01 mm; one of them fell before the projection). The held
-/// support answers a substep late, and a heavy cube's rigid tilt hands a light support
-/// torques many times its own.
+/// Where masses alternate and in columns of 50 (20 s, measured 2026-12-07), these columns
+/// failed while a held support took the block's impulse a substep late (see
+/// [`held_warm_start`]): 20 cubes of 1 kg and 10 kg drifted 0.18-0.40 m at 60 Hz and fell at
+/// 30 Hz; 10 of 1 kg and 0.01 kg fell after 4 s at 30 Hz and 16 s at 60 Hz, gaining 12-40 J;
+/// 50 cubes drifted 0.49-5.6 m at 60 Hz and 0.08-0.32 m at 120 Hz, the figure moving with the
+/// rounding of the iterations (without `Delassus`' projection of the biases, or dividing in
+/// place of its reciprocal). With the held warm start all stand within 0.004 mm, and so do
+/// the uniform columns of 18-30 cubes at 30 and 60 Hz (42 of 42). Left failing: 20 cubes of
+/// 1 kg and 100 kg collapse at 60 Hz (step 981), and the 1:100 light column falls after 17 s
+/// at 30 Hz.
 ///
 /// A soft tilt must also hold its load up: tilted by `theta`, a manifold's rows push back with
 /// a moment `W omega^2 <r^2> theta / g` (their load-scaled springs at their distances `r` from
@@ -106,7 +106,7 @@ pub fn manifold_sweep(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactConstraint],
     blocks: &[Block],
-    frictions: &[ManifoldFriction],
+    (frictions, transmitted): (&[ManifoldFriction], &Transmitted),
     solve: &ManifoldSolve,
     settling: &mut Settling,
     rows: &mut Vec<BlockRow>,
@@ -161,9 +161,10 @@ pub fn manifold_sweep(
         }
         for (k, block) in blocks.iter().enumerate().take(end).skip(start) {
             let group = &mut contacts[block.range.clone()];
+            let carried = transmitted.of(k);
             settling.friction_changed |= match frictions.get(k).filter(|f| f.ready) {
-                Some(rows) => manifold_friction(bodies, group, rows),
-                None => block_friction(bodies, group),
+                Some(rows) => manifold_friction(bodies, group, rows, carried),
+                None => block_friction(bodies, group, carried),
             };
         }
         start = end;
@@ -180,14 +181,25 @@ pub fn manifold_sweep(
 /// [`solve_friction`](crate::dynamics::solver::contact::solve_friction) in turn, on the
 /// velocities of the block's two bodies (every row of a block joins the same two, see
 /// `shock_order`) read once and written back once (see [`PairVelocities`]). Returns whether
-/// any velocity changed.
-fn block_friction(bodies: &mut [SolverBody], group: &mut [ContactConstraint]) -> bool {
+/// any velocity changed. The bounds count what the block carries (`carried`, see
+/// [`Transmitted`]), each row's in proportion to its own normal impulse.
+fn block_friction(
+    bodies: &mut [SolverBody],
+    group: &mut [ContactConstraint],
+    carried: f32,
+) -> bool {
     let (a, b) = (group[0].body_a, group[0].body_b);
     let mut v = PairVelocities::load(bodies, a, b);
     let mut changed = false;
+    let scale = if carried > 0.0 {
+        let own = group.iter().map(|c| c.normal_impulse.max(0.0)).sum::<f32>();
+        carried_scale(own, carried)
+    } else {
+        1.0
+    };
     for c in group.iter_mut().filter(|c| c.friction > 0.0) {
         debug_assert_eq!((c.body_a, c.body_b), (a, b));
-        changed |= solve_friction_in(&mut v, c);
+        changed |= solve_friction_scaled_in(&mut v, c, scale);
     }
     if changed {
         v.store(bodies, a, b);
@@ -196,15 +208,17 @@ fn block_friction(bodies: &mut [SolverBody], group: &mut [ContactConstraint]) ->
 }
 
 /// A block's friction under [`FrictionModel::Manifold`]: its [`ManifoldFriction`] rows on its
-/// two bodies' velocities, read once and written back once. Returns whether any changed.
+/// two bodies' velocities, read once and written back once, its bound counting what the block
+/// carries (`carried`, see [`Transmitted`]). Returns whether any changed.
 fn manifold_friction(
     bodies: &mut [SolverBody],
     group: &mut [ContactConstraint],
     rows: &ManifoldFriction,
+    carried: f32,
 ) -> bool {
     let (a, b) = (group[0].body_a, group[0].body_b);
     let mut v = PairVelocities::load(bodies, a, b);
-    let changed = rows.solve_in(&mut v, group);
+    let changed = rows.solve_in(&mut v, group, carried);
     if changed {
         v.store(bodies, a, b);
     }

@@ -103,10 +103,20 @@ fn manifolds(pairs: &[(usize, usize)]) -> (Vec<ContactConstraint>, Vec<Range<usi
     (contacts, ranges)
 }
 
-/// A column (ground 0, then cubes of 1, 2 and 3 kg, listed top down): blocks come out
-/// ground up, each supported by the body below and carrying the mass above it: 6, 5, 3 kg.
-#[test]
-fn column_loads_are_the_mass_above() {
+/// A static ground (body 0) and dynamic cubes of 1, 1, 2 and 1 kg (bodies 1-4).
+fn ground_and_cubes_of_1_1_2_1_kg() -> [SolverBody; 5] {
+    [
+        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+        cube(Motion::Dynamic, 1.0),
+        cube(Motion::Dynamic, 1.0),
+        cube(Motion::Dynamic, 2.0),
+        cube(Motion::Dynamic, 1.0),
+    ]
+}
+
+/// A column (ground 0, then cubes of 1, 2 and 3 kg, listed top down) with `friction` on every
+/// contact: its bodies, its contacts and its blocks in shock order.
+fn three_cube_column(friction: f32) -> ([SolverBody; 4], Vec<ContactConstraint>, Vec<Block>) {
     let bodies = [
         SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
         cube(Motion::Dynamic, 1.0),
@@ -114,8 +124,26 @@ fn column_loads_are_the_mass_above() {
         cube(Motion::Dynamic, 3.0),
     ];
     let (mut contacts, ranges) = manifolds(&[(2, 3), (1, 2), (0, 1)]);
+    for c in &mut contacts {
+        c.friction = friction;
+    }
     prepare_contacts(&bodies, &mut contacts);
     let blocks = blocks_in_shock_order(&bodies, &contacts, &ranges, 0.005);
+    (bodies, contacts, blocks)
+}
+
+/// A column with friction ([`three_cube_column`]): blocks come out ground up, each supported by
+/// the body below, which is held wholly (a column on the ground), so each block's own impulse
+/// bears only the body it supports: 1, 2, 3 kg (the mass above, 6, 5 and 3 kg, is carried
+/// down the chain, see `transmitted_impulses_are_the_impulses_above`). Frictionless, no block
+/// passes its load on (see `Block::passes_on`) and each carries the mass above.
+#[test]
+fn column_loads_are_the_body_each_block_bears() {
+    let (_, _, blocks) = three_cube_column(0.0);
+    let loads: Vec<f32> = blocks.iter().map(|b| b.load).collect();
+    assert_eq!(loads, [6.0, 5.0, 3.0]);
+    assert!(blocks.iter().all(|b| !b.passes_on));
+    let (_, _, blocks) = three_cube_column(0.5);
     let order: Vec<(usize, Support, f32)> = blocks
         .iter()
         .map(|b| (b.range.start, b.support, b.load))
@@ -123,26 +151,70 @@ fn column_loads_are_the_mass_above() {
     assert_eq!(
         order,
         [
-            (2, Support::A, 6.0),
-            (1, Support::A, 5.0),
+            (2, Support::A, 1.0),
+            (1, Support::A, 2.0),
             (0, Support::A, 3.0)
+        ]
+    );
+    assert!(blocks.iter().all(|b| b.passes_on == (b.range.start != 2)));
+}
+
+/// The column with friction with each block's normal impulse set to the weight impulse of the
+/// body it supports (1, 2 and 3 N s): the top block (cube 3 on cube 2) carries nothing beyond
+/// its own; the middle one carries the top's 3 N s; the ground's carries 2 + 3 = 5 N s, so that
+/// its friction bound and reported impulse are those of the whole column (1 + 5 = 6 N s).
+/// A body resting on two supports shares what it passes on between them in proportion to
+/// their own impulses.
+#[test]
+fn transmitted_impulses_are_the_impulses_above() {
+    let (bodies, mut contacts, blocks) = three_cube_column(0.5);
+    for (c, impulse) in contacts.iter_mut().zip([3.0, 2.0, 1.0]) {
+        c.normal_impulse = impulse;
+    }
+    let mut transmitted = Transmitted::default();
+    transmitted.compute(&bodies, &contacts, &blocks);
+    let carried: Vec<(usize, f32)> = (0..blocks.len())
+        .map(|k| (blocks[k].range.start, transmitted.of(k)))
+        .collect();
+    assert_eq!(carried, [(2, 5.0), (1, 3.0), (0, 0.0)]);
+
+    // Cube 3 (2 kg) resting on cubes 1 and 2 (1 kg each, on the ground), all frictionless,
+    // and cube 4 (1 kg) on cube 3 with friction, 1 N s: cube 3 passes the 1 N s on to its two
+    // supports in proportion to their own impulses (1 and 3 N s), and they, frictionless, pass
+    // nothing on to the ground.
+    let bodies = ground_and_cubes_of_1_1_2_1_kg();
+    let (mut contacts, ranges) = manifolds(&[(3, 4), (1, 3), (2, 3), (0, 1), (0, 2)]);
+    contacts[0].friction = 0.5;
+    prepare_contacts(&bodies, &mut contacts);
+    for (c, impulse) in contacts.iter_mut().zip([1.0, 1.0, 3.0, 2.0, 4.0]) {
+        c.normal_impulse = impulse;
+    }
+    let blocks = blocks_in_shock_order(&bodies, &contacts, &ranges, 0.005);
+    transmitted.compute(&bodies, &contacts, &blocks);
+    let of = |start: usize| {
+        let k = blocks.iter().position(|b| b.range.start == start).unwrap();
+        (blocks[k].passes_on, transmitted.of(k))
+    };
+    assert_eq!(
+        [of(0), of(1), of(2), of(3), of(4)],
+        [
+            (true, 0.0),
+            (false, 0.25),
+            (false, 0.75),
+            (false, 0.0),
+            (false, 0.0)
         ]
     );
 }
 
 /// A small pyramid: cubes 1 and 2 (1 kg) on the ground, cube 3 (2 kg) on both, and cube 4
 /// (1 kg) touching cube 1 from the side at the same level. Cube 3's load is shared equally
-/// (1 kg per support), each ground manifold carries its cube plus that share (2 kg), and
-/// the side contact has no support and no load. Cube 3's two manifolds are adjacent.
+/// (1 kg per support), each ground manifold carries its cube plus that share (2 kg: the
+/// contacts are frictionless, so no load is passed on, see `Block::passes_on`), and the side
+/// contact has no support and no load. Cube 3's two manifolds are adjacent.
 #[test]
 fn shared_loads_split_between_supports() {
-    let bodies = [
-        SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
-        cube(Motion::Dynamic, 1.0),
-        cube(Motion::Dynamic, 1.0),
-        cube(Motion::Dynamic, 2.0),
-        cube(Motion::Dynamic, 1.0),
-    ];
+    let bodies = ground_and_cubes_of_1_1_2_1_kg();
     let (mut contacts, ranges) = manifolds(&[(1, 3), (0, 1), (4, 1), (2, 3), (0, 2), (0, 4)]);
     prepare_contacts(&bodies, &mut contacts);
     let blocks = blocks_in_shock_order(&bodies, &contacts, &ranges, 0.005);
@@ -262,6 +334,7 @@ fn soft_tilt_stands_by_size_against_lever() {
             spread,
             touching: true,
             carries_released: false,
+            passes_on: false,
         }
     };
     // 30 Hz over 9.81 m/s^2: omega^2 / g = 3621.9 1/m.
@@ -335,12 +408,13 @@ fn sweep_one_block(
         spread: 0.0,
         touching: true,
         carries_released: false,
+        passes_on: false,
     }];
     manifold_sweep(
         bodies,
         contacts,
         &blocks,
-        &[],
+        (&[], &Transmitted::default()),
         &solve,
         &mut Settling::default(),
         &mut Vec::new(),
@@ -520,6 +594,7 @@ fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
         spread: 0.125,
         touching: true,
         carries_released: false,
+        passes_on: false,
     };
     let (converged, _, changed) =
         solve_block(&mut bodies, &mut contacts, &block, &solve, &mut Vec::new());
@@ -583,6 +658,7 @@ fn face_manifold_under_rounding_is_solved_once() {
         spread: 0.125,
         touching: true,
         carries_released: false,
+        passes_on: false,
     };
     solve_block(&mut bodies, &mut contacts, &block, &solve, &mut Vec::new());
     let first: Vec<f32> = contacts.iter().map(|c| c.normal_impulse).collect();

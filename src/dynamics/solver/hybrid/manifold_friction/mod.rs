@@ -114,7 +114,8 @@ impl ManifoldFriction {
     }
 
     /// One pass over the manifold's friction (the pair, then the twist) on its bodies'
-    /// velocities `v`. The manifold's resultant and twist are read from its points' impulses
+    /// velocities `v`, bounded by the friction coefficient times the points' normal impulses
+    /// plus `carried`, the load the manifold bears beyond them (see [`Transmitted`]). The manifold's resultant and twist are read from its points' impulses
     /// and handed back to them when they change: each point's tangent impulse `f / N` and its
     /// twist share `tau / N` ([`ContactConstraint::twist_impulse`], a pure torque about the
     /// normal), so that contact persistence carries them and the warm start applies exactly
@@ -129,10 +130,15 @@ impl ManifoldFriction {
     /// hull under a 0.42 kg capsule in a pour of 0.1 m bodies with friction 1 at 30 Hz spun up
     /// to 350 rad/s in one step and left the box at 5.6 m/s; two more of the 60 mixed pours
     /// of `examples/family_probe` failed that way (none with the share).
-    pub fn solve_in(&self, v: &mut PairVelocities, group: &mut [ContactConstraint]) -> bool {
+    pub fn solve_in(
+        &self,
+        v: &mut PairVelocities,
+        group: &mut [ContactConstraint],
+        carried: f32,
+    ) -> bool {
         let first = &group[0];
         let (n, tangents) = (first.normal, first.tangents);
-        let mut load = 0.0f32;
+        let mut load = carried;
         let mut force = [0.0f32; 2];
         let mut twist = 0.0f32;
         for c in group.iter() {
