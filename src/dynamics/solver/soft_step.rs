@@ -9,7 +9,7 @@ use crate::impulse::row_impulse;
 use super::body::{SolverBody, integrate_positions_owing, integrate_velocities};
 use super::contact::{ContactConstraint, refresh_inertia, warm_start};
 use super::hybrid::{
-    Block, BlockRow, ManifoldFriction, ManifoldSolve, Transmitted, carried_scale, held_warm_start,
+    Block, BlockRow, ManifoldFriction, ManifoldSolve, Transmitted, held_warm_start,
     manifold_frictions, manifold_sweep,
 };
 use super::iterative::{Settling, Sweep};
@@ -131,7 +131,6 @@ pub(super) fn soft_substeps(
         transmitted,
         ..
     } = scratch;
-    transmitted.clear();
     settling.friction_changed = false;
     if let Resting::Manifolds(blocks) = resting {
         manifold_frictions(config.friction_model, bodies, contacts, blocks, frictions);
@@ -226,13 +225,11 @@ pub(super) fn soft_substeps(
 /// it, the weight of a whole column at its foot.
 fn store_carried(contacts: &mut [ContactConstraint], blocks: &[Block], transmitted: &Transmitted) {
     for (k, block) in blocks.iter().enumerate() {
-        let carried = transmitted.of(k);
-        if carried <= 0.0 {
+        let rows = &mut contacts[block.range.clone()];
+        let scale = transmitted.bound_scale(k, rows) - 1.0;
+        if scale == 0.0 {
             continue;
         }
-        let rows = &mut contacts[block.range.clone()];
-        let own = rows.iter().map(|c| c.normal_impulse.max(0.0)).sum::<f32>();
-        let scale = carried_scale(own, carried) - 1.0;
         for c in rows.iter_mut() {
             c.total_impulse += c.normal_impulse.max(0.0) * scale;
         }

@@ -161,10 +161,12 @@ pub fn manifold_sweep(
         }
         for (k, block) in blocks.iter().enumerate().take(end).skip(start) {
             let group = &mut contacts[block.range.clone()];
-            let carried = transmitted.of(k);
             settling.friction_changed |= match frictions.get(k).filter(|f| f.ready) {
-                Some(rows) => manifold_friction(bodies, group, rows, carried),
-                None => block_friction(bodies, group, carried),
+                Some(rows) => manifold_friction(bodies, group, rows, transmitted.of(k)),
+                None => {
+                    let scale = transmitted.bound_scale(k, group);
+                    block_friction(bodies, group, scale)
+                }
             };
         }
         start = end;
@@ -181,22 +183,12 @@ pub fn manifold_sweep(
 /// [`solve_friction`](crate::dynamics::solver::contact::solve_friction) in turn, on the
 /// velocities of the block's two bodies (every row of a block joins the same two, see
 /// `shock_order`) read once and written back once (see [`PairVelocities`]). Returns whether
-/// any velocity changed. The bounds count what the block carries (`carried`, see
-/// [`Transmitted`]), each row's in proportion to its own normal impulse.
-fn block_friction(
-    bodies: &mut [SolverBody],
-    group: &mut [ContactConstraint],
-    carried: f32,
-) -> bool {
+/// any velocity changed. The bounds count what the block carries, `scale` times each row's
+/// own (see [`Transmitted::bound_scale`]).
+fn block_friction(bodies: &mut [SolverBody], group: &mut [ContactConstraint], scale: f32) -> bool {
     let (a, b) = (group[0].body_a, group[0].body_b);
     let mut v = PairVelocities::load(bodies, a, b);
     let mut changed = false;
-    let scale = if carried > 0.0 {
-        let own = group.iter().map(|c| c.normal_impulse.max(0.0)).sum::<f32>();
-        carried_scale(own, carried)
-    } else {
-        1.0
-    };
     for c in group.iter_mut().filter(|c| c.friction > 0.0) {
         debug_assert_eq!((c.body_a, c.body_b), (a, b));
         changed |= solve_friction_scaled_in(&mut v, c, scale);

@@ -139,12 +139,7 @@ impl Transmitted {
         refill(passed, bodies.len(), 0.0);
         refill(pressing, bodies.len(), 0.0);
         refill(supports, bodies.len(), 0);
-        let own = |block: &Block| {
-            contacts[block.range.clone()]
-                .iter()
-                .map(|c| c.normal_impulse.max(0.0))
-                .sum::<f32>()
-        };
+        let own = |block: &Block| own_impulse(&contacts[block.range.clone()]);
         for block in blocks.iter().filter(|b| b.touching) {
             if let Some(upper) = block.upper(contacts) {
                 pressing[upper] += own(block);
@@ -176,20 +171,26 @@ impl Transmitted {
         self.carried.get(k).copied().unwrap_or(0.0)
     }
 
-    /// No block carries anything.
-    pub fn clear(&mut self) {
-        self.carried.clear();
+    /// The factor on the friction bounds of block `k`, whose rows are `rows`: `(own + carried)
+    /// / own`, `own` their normal impulses' sum, so that each row's bound grows in proportion to
+    /// its own impulse; 1 where the block carries nothing or its rows push nothing.
+    #[inline]
+    pub fn bound_scale(&self, k: usize, rows: &[ContactConstraint]) -> f32 {
+        let carried = self.of(k);
+        if carried <= 0.0 {
+            return 1.0;
+        }
+        let own = own_impulse(rows);
+        if own > 0.0 {
+            (own + carried) / own
+        } else {
+            1.0
+        }
     }
 }
 
-/// The factor on the friction bounds of a block's rows that carry `carried` beyond their own
-/// normal impulses `own` (their sum): `(own + carried) / own`, so that each row's bound grows in
-/// proportion to its own impulse; 1 where it carries nothing or pushes nothing.
+/// The sum of `rows`' own normal impulses (the pushing ones), N s.
 #[inline]
-pub fn carried_scale(own: f32, carried: f32) -> f32 {
-    if carried > 0.0 && own > 0.0 {
-        (own + carried) / own
-    } else {
-        1.0
-    }
+fn own_impulse(rows: &[ContactConstraint]) -> f32 {
+    rows.iter().map(|c| c.normal_impulse.max(0.0)).sum()
 }
