@@ -87,8 +87,14 @@ pub struct Block {
     /// above that body comes through two-body soft rows, not a held chain (see
     /// [`manifold_sweep`] on which manifolds with friction keep a rigid tilt).
     pub carries_released: bool,
-    /// Its normal impulse is passed on through its support, not applied to it (see
-    /// [`held_warm_start`] and [`Transmitted`]; set by `mark_passing_on`).
+    /// What its hold leaves free of its support's response, its support's supports' friction
+    /// holds: the support rests on fixed bodies only, the push lies inside their friction cone,
+    /// and its line crosses the support's footprint (see `held_by_friction`; set by
+    /// `support_holds`). Such a support passes its load on like a wholly held one.
+    pub gripped: bool,
+    /// The held part of its normal impulse (all of it where the support is held wholly) is
+    /// passed on through its support, not applied to it (see [`held_warm_start`] and
+    /// [`Transmitted`]; set by `mark_passing_on`).
     pub passes_on: bool,
 }
 

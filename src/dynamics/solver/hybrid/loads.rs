@@ -5,8 +5,9 @@ use crate::dynamics::solver::refill;
 
 /// Sets each supported block's [`Block::load`]: the mass of its upper body plus everything that
 /// presses on that body, shared equally among the body's supports; what a block passes on
-/// through its support ([`Block::passes_on`]) does not press on the support (its warm start
-/// leaves it out, see [`held_warm_start`]), so it counts only for the supports' levers. `blocks`
+/// through its support ([`Block::passes_on`]: the held part of its load, all of it where the
+/// support is held wholly) does not press on the support (its warm start leaves it out, see
+/// [`held_warm_start`]), so it counts only for the supports' levers. `blocks`
 /// must be in `shock_order`'s order (ascending lower level), so that walking it backwards
 /// visits every block a body supports before the blocks that support it.
 ///
@@ -71,9 +72,13 @@ pub(super) fn carried_loads(
             let share = load[upper] * fraction;
             block.load = borne[upper] * fraction;
             if bodies[lower].motion == Motion::Dynamic {
-                if !block.passes_on {
-                    borne[lower] += block.load;
-                }
+                // What a block passes on, its support's supports take (all of it where it is
+                // held wholly); the support bears the rest.
+                borne[lower] += if block.passes_on {
+                    (1.0 - block.hold.min(1.0)) * block.load
+                } else {
+                    block.load
+                };
                 load[lower] += share;
                 let carried = moment[upper] * fraction;
                 moment[lower] += carried;

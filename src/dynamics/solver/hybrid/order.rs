@@ -131,6 +131,7 @@ pub(super) fn shock_order(
         touching: touching[k as usize],
         carries_released: false,
         passes_on: false,
+        gripped: false,
     }));
     // Which blocks are released is known before the holds: `support_holds` then skips the
     // holds that no held block depends on.

@@ -207,6 +207,76 @@ fn transmitted_impulses_are_the_impulses_above() {
     );
 }
 
+/// A 0.01 kg cube on the ground under a 1 kg cube whose contact normal leans `theta` = 0.1 rad
+/// off the ground's (friction 0.5 between the cubes, `ground_friction` on the ground; bodies
+/// and points at the origin, so nothing turns): the light cube's hold is `cos^2 theta` = 0.990
+/// (the ground stops only the push's part along its own normal), short of a whole one. It
+/// passes the load on only where the ground's friction stops the rest with `GRIP_MARGIN` (2)
+/// to spare, `tan theta` = 0.1003 <= mu / 2: with mu 0.3, not with 0.15, and not when it rests
+/// on a dynamic cube (a chain, whose lower links may move), whatever the friction. Straight
+/// down (theta 0) the hold is whole and needs no grip. What it passes on is the held part: the
+/// ground's block carries `cos^2 theta` of the upper block's impulse. (The cubes sit at the
+/// origin, the upper contact at its centre, the ground's four points at the light cube's bottom
+/// corners: the push's line crosses that face, so it cannot tip the light cube.)
+#[test]
+fn a_support_held_by_friction_passes_its_load_on() {
+    let theta = 0.1f32;
+    let lean = Vec3::new(theta.sin(), theta.cos(), 0.0);
+    let light_then_heavy = |normal: Vec3, ground_friction: f32, on_a_cube: bool| {
+        let mut bodies = vec![
+            SolverBody::new(Motion::Static, Vec3::ZERO, Quat::IDENTITY),
+            cube(Motion::Dynamic, 0.01),
+            cube(Motion::Dynamic, 1.0),
+            cube(Motion::Dynamic, 1.0),
+        ];
+        let row = |a: usize, b: usize, point: Vec3, normal: Vec3, friction: f32| {
+            ContactConstraint::new(a, b, point, normal, 0.0, 0.0, friction)
+        };
+        let mut contacts = vec![row(1, 2, Vec3::ZERO, normal, 0.5)];
+        let ranges = if on_a_cube {
+            contacts.push(row(3, 1, Vec3::ZERO, Vec3::Y, ground_friction));
+            contacts.push(row(0, 3, Vec3::ZERO, Vec3::Y, ground_friction));
+            vec![0..1, 1..2, 2..3]
+        } else {
+            bodies.pop();
+            for (x, z) in [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)] {
+                let corner = Vec3::new(x, -0.5, z);
+                contacts.push(row(0, 1, corner, Vec3::Y, ground_friction));
+            }
+            vec![0..1, 1..5]
+        };
+        prepare_contacts(&bodies, &mut contacts);
+        let blocks = blocks_in_shock_order(&bodies, &contacts, &ranges, 0.005);
+        let top = blocks.iter().position(|b| b.range.start == 0).unwrap();
+        (bodies, contacts, blocks, top)
+    };
+    let (_, _, blocks, top) = light_then_heavy(lean, 0.3, false);
+    let cos2 = theta.cos().powi(2);
+    assert!(
+        (blocks[top].hold - cos2).abs() < 1e-6,
+        "{}",
+        blocks[top].hold
+    );
+    assert!(blocks[top].hold < WHOLLY_HELD);
+    assert!(blocks[top].passes_on);
+    let passes = |(_, _, blocks, top): (_, _, Vec<Block>, usize)| blocks[top].passes_on;
+    assert!(!passes(light_then_heavy(lean, 0.15, false)));
+    assert!(!passes(light_then_heavy(lean, 1.0, true)));
+    let (_, _, blocks, top) = light_then_heavy(Vec3::Y, 0.0, false);
+    assert!(blocks[top].hold >= WHOLLY_HELD && blocks[top].passes_on);
+
+    let (bodies, mut contacts, blocks, top) = light_then_heavy(lean, 0.3, false);
+    contacts[0].normal_impulse = 1.0;
+    for c in &mut contacts[1..] {
+        c.normal_impulse = 0.0025;
+    }
+    let mut transmitted = Transmitted::default();
+    transmitted.compute(&bodies, &contacts, &blocks);
+    let ground = blocks.iter().position(|b| b.range.start == 1).unwrap();
+    assert_eq!(transmitted.of(top), 0.0);
+    assert!((transmitted.of(ground) - cos2).abs() < 1e-6);
+}
+
 /// A small pyramid: cubes 1 and 2 (1 kg) on the ground, cube 3 (2 kg) on both, and cube 4
 /// (1 kg) touching cube 1 from the side at the same level. Cube 3's load is shared equally
 /// (1 kg per support), each ground manifold carries its cube plus that share (2 kg: the
@@ -335,6 +405,7 @@ fn soft_tilt_stands_by_size_against_lever() {
             touching: true,
             carries_released: false,
             passes_on: false,
+            gripped: false,
         }
     };
     // 30 Hz over 9.81 m/s^2: omega^2 / g = 3621.9 1/m.
@@ -409,6 +480,7 @@ fn sweep_one_block(
         touching: true,
         carries_released: false,
         passes_on: false,
+        gripped: false,
     }];
     manifold_sweep(
         bodies,
@@ -595,6 +667,7 @@ fn held_friction_block_solved_in_velocity_space_meets_its_equations() {
         touching: true,
         carries_released: false,
         passes_on: false,
+        gripped: false,
     };
     let (converged, _, changed) =
         solve_block(&mut bodies, &mut contacts, &block, &solve, &mut Vec::new());
@@ -659,6 +732,7 @@ fn face_manifold_under_rounding_is_solved_once() {
         touching: true,
         carries_released: false,
         passes_on: false,
+        gripped: false,
     };
     solve_block(&mut bodies, &mut contacts, &block, &solve, &mut Vec::new());
     let first: Vec<f32> = contacts.iter().map(|c| c.normal_impulse).collect();

@@ -1,5 +1,5 @@
-//! A held chain's loads: what a wholly held support passes on to its own supports, which its
-//! warm start does not apply to it.
+//! A held chain's loads: what a held support passes on to its own supports, which its warm
+//! start does not apply to it.
 
 use super::*;
 use crate::dynamics::solver::refill;
@@ -11,8 +11,8 @@ pub const WHOLLY_HELD: f32 = 1.0 - 1e-4;
 /// Sets [`Block::passes_on`] on each of `blocks` (before `release_frictional_groups`, whose
 /// marks are `released`; `rests_on_released` a buffer, one entry a body, its earlier contents
 /// dropped): a touching block with friction whose support is a dynamic body held wholly (see
-/// [`WHOLLY_HELD`]) and resting only on blocks that are not released, so that what it passes on
-/// reaches blocks that carry it down ([`Transmitted`]).
+/// [`WHOLLY_HELD`]) or by friction ([`Block::gripped`]), and resting only on blocks that are not
+/// released, so that what it passes on reaches blocks that carry it down ([`Transmitted`]).
 ///
 /// Why friction: a held support given none of the block's impulse also misses the impulse's
 /// part across its own supports' normals (f32 rounding tilts a normal by 1e-7), which nothing
@@ -22,6 +22,21 @@ pub const WHOLLY_HELD: f32 = 1.0 - 1e-4;
 /// answer a substep late, which is harmless there: frictionless columns and pyramids stand.
 /// Why not onto released blocks: those are solved two-body (see `release_frictional_groups`)
 /// and carry nothing passed to them, so a load passed on there would press nothing below.
+///
+/// Why a hold by friction: a 4 g hull on the floor (friction 1) under a 0.42 kg capsule whose
+/// contact normal leans 4 degrees off the floor's has a hold of 0.995, not a whole one; warm
+/// started with the whole impulse a substep late, it took the difference of two loads a
+/// hundred times its weight and left at 12.9-17.8 m/s (a pour of 0.1 m mixed shapes with
+/// friction 1 at 120 Hz, `examples/family_probe`; the free-fall bound is 6.5 m/s); passing
+/// the held part on, it stays under 2.7 m/s. Why only where friction on fixed bodies holds the
+/// rest (with a margin, see `GRIP_MARGIN`), and the push cannot tip or roll the support: what
+/// the support does not take of the push it slides or rolls along, while the body above is
+/// held up as by a support that does not give way. A 35 g box pressed by a 95 kg one against
+/// a frictionless floor leaning 5 degrees away (hold 0.990) was squeezed out at 3e7 m/s
+/// (`tests/energy.rs`' seed 4004 under the manifold friction model); with every hold above 0
+/// passed on where the floor has friction, balls pressed 1-4 degrees off their centres
+/// rolled away under the bodies landing on them, which were thrown back up at 4.3 m/s (the
+/// mixed pour of 1,000, density 1000, friction 0.5, step 38; every contact inelastic).
 pub(super) fn mark_passing_on(
     bodies: &[SolverBody],
     contacts: &[ContactConstraint],
@@ -37,7 +52,7 @@ pub(super) fn mark_passing_on(
     }
     for block in blocks.iter_mut() {
         block.passes_on = block.touching
-            && block.hold >= WHOLLY_HELD
+            && (block.hold >= WHOLLY_HELD || block.gripped)
             && contacts[block.range.start].friction > 0.0
             && block.pair(contacts).is_some_and(|(_, lower)| {
                 bodies[lower].motion == Motion::Dynamic && !rests_on_released[lower]
@@ -46,10 +61,11 @@ pub(super) fn mark_passing_on(
 }
 
 /// The warm start of the hybrid's resting phase: each block's accumulated impulses applied as
-/// its solve applies them. A support held wholly takes no part of the block's normal impulse
-/// (the block's solve does not move it); friction and twist go to both bodies in full. Every
-/// other block is warm-started as [`warm_start`](crate::dynamics::solver::contact::warm_start)
-/// does, bit for bit.
+/// its solve applies them. The support of a block that passes its load on ([`Block::passes_on`])
+/// takes only the part of the block's normal impulse that its own supports do not (none where
+/// it is held wholly: the block's solve does not move it); friction and twist go to both bodies
+/// in full. Every other block is warm-started as
+/// [`warm_start`](crate::dynamics::solver::contact::warm_start) does, bit for bit.
 ///
 /// Why: a held block's solve moves only the body it supports. Given the whole accumulated
 /// impulse `lambda_H` at the next warm start (Newton's third law a substep late), the support
@@ -61,7 +77,7 @@ pub(super) fn mark_passing_on(
 /// (+6.6 J, 0.18 m aside in 20 s at 60 Hz), columns alternating 1 kg and 0.01 kg (+24 J),
 /// and 4 g hulls out of mixed pours; correcting only the total for the lag (adding each
 /// substep's change of `lambda_H` to the supports' impulses beneath) held none of them, so the
-/// split matters too. The load above a wholly held support is instead carried down the chain
+/// split matters too. The load a held support passes on is instead carried down the chain
 /// without moving it ([`Transmitted`]), to the friction bounds and reported impulses of the
 /// blocks beneath.
 pub fn held_warm_start(
@@ -97,10 +113,11 @@ pub fn held_warm_start(
     }
 }
 
-/// What each block carries beyond its own normal impulse: the impulses of the wholly held
-/// blocks above its supported body (see [`held_warm_start`]), with what they carry in turn,
-/// shared among that body's touching supports in proportion to their own impulses (equally
-/// where none pushes). It never moves a body: it enlarges the blocks' friction bounds (a column
+/// What each block carries beyond its own normal impulse: the held part (`hold` times) of the
+/// impulses of the blocks above its supported body that pass their load on (see
+/// [`Block::passes_on`] and [`held_warm_start`]), with what they carry in turn, shared among
+/// that body's touching supports in proportion to their own impulses (equally where none
+/// pushes). It never moves a body: it enlarges the blocks' friction bounds (a column
 /// on a slope holds by the weight of all of it) and the impulses they report.
 #[derive(Clone, Debug, Default)]
 pub struct Transmitted {
@@ -116,8 +133,9 @@ pub struct Transmitted {
 
 impl Transmitted {
     /// Recomputes every block's carried impulse from the blocks' accumulated normal impulses
-    /// (`blocks` in shock order): walking the blocks top down, each wholly held block passes its
-    /// impulse and what it carries to its support, which shares it among its own supports.
+    /// (`blocks` in shock order): walking the blocks top down, each block that passes its load
+    /// on passes the held part of its impulse and of what it carries to its support, which
+    /// shares it among its own supports.
     pub fn compute(
         &mut self,
         bodies: &[SolverBody],
@@ -160,7 +178,7 @@ impl Transmitted {
                 carried[k] = passed[upper] * share;
             }
             if block.passes_on {
-                passed[lower] += own + carried[k];
+                passed[lower] += block.hold.min(1.0) * (own + carried[k]);
             }
         }
     }

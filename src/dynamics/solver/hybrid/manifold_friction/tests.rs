@@ -234,6 +234,7 @@ fn a_block_solved_per_point_drops_its_twist() {
         touching: true,
         carries_released: false,
         passes_on: false,
+        gripped: false,
     };
     let blocks = [block(0..1), block(1..4)];
     let mut rows = Vec::new();
