@@ -226,18 +226,8 @@ pub(super) fn hold_of(entries: &[SupportEntry], n: Vec3, point: Vec3, turns: boo
     if entries.is_empty() {
         return (0.0, n);
     }
-    if turns {
-        let axis = entries
-            .iter()
-            .map(|e| e.normal)
-            .sum::<Vec3>()
-            .normalize_or_zero();
-        let footprint = entries
-            .iter()
-            .flat_map(|e| e.footprint[..e.points as usize].iter().copied());
-        if axis == Vec3::ZERO || !line_meets_footprint(footprint, point, n, axis) {
-            return (0.0, n);
-        }
+    if turns && !crosses_footprint(entries, point, n) {
+        return (0.0, n);
     }
     // At most `MAX_SUPPORTS` entries (`support_holds` caps each body's): the normals on the
     // stack, since a heap vector here was nearly every allocation of a settled pile's step
@@ -291,6 +281,13 @@ pub(super) fn held_by_friction(entries: &[SupportEntry], n: Vec3, point: Vec3, h
     {
         return false;
     }
+    crosses_footprint(entries, point, n)
+}
+
+/// Whether the line through `point` along `n` crosses the footprint of a support's support
+/// manifolds `entries` (their points, seen along their mean normal; see
+/// [`line_meets_footprint`]): a push along that line cannot tip the support.
+fn crosses_footprint(entries: &[SupportEntry], point: Vec3, n: Vec3) -> bool {
     let axis = entries
         .iter()
         .map(|e| e.normal)
