@@ -155,7 +155,7 @@ pub(super) fn support_holds(
             let first = start[lower] as usize;
             let below = &entries[first..first + count[lower] as usize];
             let (hold, push) = hold_of(below, normal, centroid, turns);
-            block.gripped = held_by_friction(below, normal, centroid, hold);
+            block.gripped = held_by_friction(below, normal, centroid, (hold, turns));
             (hold, push)
         };
         block.hold = hold;
@@ -270,8 +270,15 @@ pub const GRIP_MARGIN: f32 = 2.0;
 /// fixed supports, `hold = |P(n)|^2`, so this is `GRIP_MARGIN |n - P(n)| <= mu |P(n)|`: the
 /// push lies inside the friction cone of `mu / GRIP_MARGIN`), and the push's line crosses the
 /// support's footprint, so that the push cannot tip or roll it: a ball or a capsule, whose
-/// footprint is a point or a line, rolls under any push off its normals.
-pub(super) fn held_by_friction(entries: &[SupportEntry], n: Vec3, point: Vec3, hold: f32) -> bool {
+/// footprint is a point or a line, rolls under any push off its normals. `(hold, turns)` as
+/// [`hold_of`] took and gave them: where the push `turns` the support, `hold_of` has crossed
+/// the footprint already (the hold is 0 where it does not), and it is not crossed again.
+pub(super) fn held_by_friction(
+    entries: &[SupportEntry],
+    n: Vec3,
+    point: Vec3,
+    (hold, turns): (f32, bool),
+) -> bool {
     if hold <= 0.0
         || entries.is_empty()
         || !entries.iter().all(|e| {
@@ -281,7 +288,7 @@ pub(super) fn held_by_friction(entries: &[SupportEntry], n: Vec3, point: Vec3, h
     {
         return false;
     }
-    crosses_footprint(entries, point, n)
+    turns || crosses_footprint(entries, point, n)
 }
 
 /// Whether the line through `point` along `n` crosses the footprint of a support's support
