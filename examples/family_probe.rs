@@ -138,12 +138,7 @@ fn standing(bodies: Vec<Entity>, half_width: f32, top: f32) -> Spawned {
 }
 
 fn pour(count: usize, bodies: PourBodies, friction: f32, size: f32, jitter: f32) -> Pour {
-    let mut p = Pour::walled_box(count, bodies, 1.0, friction);
-    p.size = size;
-    p.spacing = 2.2 * size;
-    p.layer_pitch = 2.4 * size;
-    p.first_height = 4.0 * size;
-    p.half_width = Some(21.0 * size);
+    let mut p = Pour::walled_box_sized(count, bodies, 1.0, friction, size);
     p.jitter = jitter * size;
     p
 }

@@ -545,14 +545,7 @@ fn long_jacobi() {
 /// at most over the 8 s of the probe.
 #[test]
 fn small_mixed_pour_with_friction_stays_under_free_fall() {
-    let size = 0.1;
-    let mut pour = Pour::walled_box(400, PourBodies::Mixed, 1.0, 1.0);
-    pour.size = size;
-    pour.spacing = 2.2 * size;
-    pour.layer_pitch = 2.4 * size;
-    pour.first_height = 4.0 * size;
-    pour.half_width = Some(21.0 * size);
-    pour.jitter = 0.1 * size;
+    let pour = Pour::walled_box_sized(400, PourBodies::Mixed, 1.0, 1.0, 0.1);
     let mut app = awake_default_at(120.0);
     let spawned = scenes::pour_into(app.world_mut(), &pour);
     let limit = speed_limit(&spawned, 0.0, &SolverConfig::default());

@@ -121,17 +121,30 @@ impl Pour {
     /// first at 2 m) into a 21 m x 21 m box of static cuboid walls. With 1,000 spheres,
     /// `Density(1.0)` and `Friction(0.5)`, the case where the default blew up.
     pub fn walled_box(count: usize, bodies: PourBodies, density: f32, friction: f32) -> Self {
+        Self::walled_box_sized(count, bodies, density, friction, 0.5)
+    }
+
+    /// [`Pour::walled_box`] with bodies of `size` (m) and every length in proportion: grid
+    /// `2.2 size`, layers `2.4 size` apart from `4 size` up, box `42 size` wide, jitter
+    /// `0.1 size` (at 0.5 m, `walled_box` exactly).
+    pub fn walled_box_sized(
+        count: usize,
+        bodies: PourBodies,
+        density: f32,
+        friction: f32,
+        size: f32,
+    ) -> Self {
         Pour {
             count,
             bodies,
-            size: 0.5,
+            size,
             mass: PourMass::Density(density),
             friction,
-            half_width: Some(10.5),
-            spacing: 1.1,
-            first_height: 2.0,
-            layer_pitch: 1.2,
-            jitter: 0.05,
+            half_width: Some(21.0 * size),
+            spacing: 2.2 * size,
+            first_height: 4.0 * size,
+            layer_pitch: 2.4 * size,
+            jitter: 0.1 * size,
         }
     }
 
